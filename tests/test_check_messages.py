@@ -198,9 +198,11 @@ def test_a_function_named_like_a_name_of_the_generated_code_is_refused(
     tmp_path, monkeypatch
 ) -> None:
     """A function is a module function of the generated code and a `let` a local of its
-    method: neither may take a name that code already uses, nor a (soft) keyword."""
-    taken = ["self", "state", "hooks", "buf", "command", "perf_counter_ns", "is_real"]
-    taken += ["is_integer", "abs", "len", "match"]
+    method: neither may take a name that code already uses, nor a (soft) keyword (named
+    `words`, a function replaced the runtime's `words(buf)` the class calls; `held`,
+    `caused`, ... alike)."""
+    taken = ["self", "state", "hooks", "perf_counter_ns", "words", "held", "hook", "within"]
+    taken += ["caused", "plan_problem", "decode_text", "abs", "len", "match"]
     functions = "".join(
         f"  {name}:\n    params: {{x: float}}\n    returns: float\n    body: x / 2\n"
         for name in taken
@@ -247,4 +249,29 @@ def test_each_let_named_like_something_else_is_refused(tmp_path, monkeypatch) ->
             "rename it",
         ),
         ("E262", "`let` value `high` cannot be named so: it is a predicate", "rename it"),
+    ]
+
+
+def test_the_harness_given_two_systems_says_which_and_where(tmp_path, monkeypatch) -> None:
+    """`harness.generate` runs one system: given a directory of two, each is named at its
+    `system:` line (it raised a SpecError with no diagnostic at all)."""
+    from rcsgen.compiler.diagnostics import SpecError
+    from rcsgen.tools.harness import generate
+
+    for name in ("tank", "vat"):
+        (tmp_path / "two" / name).mkdir(parents=True)
+        (tmp_path / "two" / name / "system.yaml").write_text(SYSTEM.replace("tank", name, 1))
+        (tmp_path / "two" / name / "tank.yaml").write_text(TANK)
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SpecError) as raised:
+        generate(Path("two"))
+    both = "`two` holds 2 systems, `tank` (two/tank/system.yaml), `vat` (two/vat/system.yaml)"
+    assert [(str(d.span), d.code, d.message, d.hint) for d in raised.value.diagnostics.items] == [
+        (
+            f"two/{name}/system.yaml:1:9",
+            "E224",
+            f"{both}: the harness runs one",
+            f"give one system's directory: `two/{name}`",
+        )
+        for name in ("tank", "vat")
     ]

@@ -82,7 +82,7 @@ def test_e419_a_golden_trace_that_is_not_a_trace(tmp_path: Path) -> None:
 def test_a_hint_names_the_near_name_else_the_declared_ones() -> None:
     assert known_names_hint("plans", ["legs", "route"], "leg") == "did you mean `legs`?"
     assert known_names_hint("plans", ["legs", "route"], "xyz") == "declared plans: `legs`, `route`"
-    assert known_names_hint("plans", [], "xyz") == "no plans is declared"
+    assert known_names_hint("plans", [], "xyz") == "no plans are declared"
     many = [f"n{i}" for i in range(10)]
     assert known_names_hint("locals", many) == (
         "declared locals: " + ", ".join(f"`n{i}`" for i in range(8)) + " and 2 more"

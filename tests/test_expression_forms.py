@@ -8,6 +8,7 @@ from pathlib import Path
 
 from test_check_messages import SYSTEM, TANK
 
+from rcsgen.compiler.diagnostics import Diagnostic
 from rcsgen.compiler.frontend import compile_paths
 
 HINT = (
@@ -43,9 +44,12 @@ FORMS = [
         "starred expressions are not allowed in a spec expression",
         HINT,
     ),
-    ("await world.level", 0, "E102", "await are not allowed in a spec expression", HINT),
-    ("(yield 1) == 1", 1, "E102", "yield are not allowed in a spec expression", HINT),
-    ("[1, 2] == 1", 0, "E102", "`List` expressions are not allowed in a spec expression", HINT),
+    ("await world.level", 0, "E102", "`await` is not allowed in a spec expression", HINT),
+    ("(yield 1) == 1", 1, "E102", "`yield` is not allowed in a spec expression", HINT),
+    ("[1, 2] == 1", 0, "E102", "lists are not allowed in a spec expression", HINT),
+    ("(1, 2) == 1", 0, "E102", "tuples are not allowed in a spec expression", HINT),
+    ("{1: 2} == 1", 0, "E102", "dictionaries are not allowed in a spec expression", HINT),
+    ("{1} == 1", 0, "E102", "sets are not allowed in a spec expression", HINT),
     ("world.level @ 2 > 1", 0, "E102", "only + - * / // % are allowed", ""),
     ("world.level << 1 > 1", 0, "E102", "only + - * / // % are allowed", ""),
     ("~world.level > 1", 0, "E102", "bitwise operators are not allowed", ""),
@@ -85,13 +89,74 @@ def test_each_form_is_refused_by_name_at_its_place(tmp_path: Path, monkeypatch) 
     (tmp_path / "tank.yaml").write_text(tank)
     monkeypatch.chdir(tmp_path)
     lines = tank.splitlines()
-    quote = len("        - when: ")  # a guard's opening quote (0-based); a column counts from it
+    first = len("        - when: ") + 2  # a guard's first character (1-based), past its quote
     found = [
         (d.code, str(d.span), d.message, d.hint)
         for d in compile_paths([Path(".")], analyse=False).diagnostics.items
     ]
     line = {guard: lines.index(f'        - when: "{guard}"') + 1 for guard, *_ in FORMS}
     assert found == [
-        (code, f"tank.yaml:{line[guard]}:{quote + col + 1}", message, hint)
+        (code, f"tank.yaml:{line[guard]}:{first + col}", message, hint)
         for guard, col, code, message, hint in FORMS
+    ]
+
+
+# One guard, `world.level + nope > 1`, written in each form YAML has for a scalar: an error
+# in it is located at `nope` itself, not at the opening quote or the block's indicator.
+SCALARS = [
+    '"world.level + nope > 1"',
+    "'world.level + nope > 1'",
+    "world.level + nope > 1",
+    ">-\n            world.level + nope > 1",
+    "|\n            world.level + nope > 1",
+    '"world.level\n            + nope > 1"',
+    "world.level\n            + nope > 1",
+    ">\n            world.level\n              + nope > 1\n",
+    '"world.level + \\\n            nope > 1"',
+    "'world.level > 1 and ''a'' == nope'",
+]
+
+
+def guarded(tmp_path: Path, monkeypatch, guards: list[str]) -> tuple[str, list[Diagnostic]]:
+    """The tank with a rule per guard, each as written (before FILL's first), and what
+    compiling it says."""
+    probes = "".join(f"        - when: {guard}\n          do: []\n" for guard in guards)
+    first = "        - when: world.level < 2.0\n"
+    tank = TANK.replace(first, probes + first)
+    (tmp_path / "system.yaml").write_text(SYSTEM)
+    (tmp_path / "tank.yaml").write_text(tank)
+    monkeypatch.chdir(tmp_path)
+    return tank, compile_paths([Path(".")], analyse=False).diagnostics.items
+
+
+def test_an_error_in_any_form_of_scalar_is_located_at_its_character(
+    tmp_path: Path, monkeypatch
+) -> None:
+    tank, found = guarded(tmp_path, monkeypatch, SCALARS)
+    written = [
+        f"tank.yaml:{number}:{line.index('nope') + 1}"
+        for number, line in enumerate(tank.splitlines(), start=1)
+        if "nope" in line
+    ]
+    assert [(d.code, str(d.span)) for d in found] == [("E103", at) for at in written]
+
+
+def test_an_expression_error_of_a_quoted_scalar_is_located_past_the_quote(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """A syntax error at the end (`world.level +`) just after its last character; a type
+    error of the whole expression at its first one; in a quoted and a block scalar alike."""
+    guards = [
+        '"world.level +"',
+        "'world.level'",
+        ">-\n            world.level +",
+        "|\n            world.level",
+    ]
+    tank, found = guarded(tmp_path, monkeypatch, guards)
+    line = tank.splitlines().index('        - when: "world.level +"') + 1
+    assert [(d.code, d.span.line, d.span.col) for d in found] == [
+        ("E101", line, 31),  # after `+`: 17 is the quote, 18 the `w`
+        ("E107", line + 2, 18),
+        ("E101", line + 5, 26),
+        ("E107", line + 8, 13),
     ]

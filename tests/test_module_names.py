@@ -12,12 +12,14 @@ constant, with what it collides with."""
 from __future__ import annotations
 
 import ast
+import functools
 import re
 import shutil
 from pathlib import Path
 
 import pytest
 
+from rcsgen.compiler.checks import naming
 from rcsgen.compiler.frontend import compile_paths
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -195,3 +197,146 @@ def test_every_attribute_of_a_generated_class_is_refused_as_a_predicate(
         assert "held_every_cycle_1" in names or name != "atmosphere"  # its `for:` rule's
         missing = [n for n in names if (name, n) not in refused]
         assert missing == [], f"{system}/{name}: no error for the predicates {missing}"
+
+
+# ------------------------------------------------------------ the reserved sets, both ways
+
+GENERATED = sorted(p for p in (ROOT / "generated").iterdir() if (p / "layout.py").is_file())
+# Blocks of a generated controller module whose constants its spec names (commands, reasons,
+# states, constants, enumeration values), by their comment's first words.
+OWN_BLOCKS = ("# Commands ", "# Why ", "# States ", "# Constants.", "# Enumeration values ")
+# A runtime name no committed module has, and why it is reserved all the same.
+NOT_SHIPPED = {"NOT_READY": "imported where a guard compares a status with it; no shipped spec"}
+
+
+# What the tests below read of a generated module, by its lines (ruff formats it, so a
+# module-level name starts its line, a class-level one is indented four spaces): a regular
+# expression over the text is a tenth of the time a syntax tree of 90 modules takes.
+_ASSIGNED = re.compile(r"^(\w+)(?:: [^=\n]+)? = ", re.MULTILINE)
+_DEFINED = re.compile(r"^(?:def|class) (\w+)", re.MULTILINE)
+_IMPORTS = re.compile(r"^(?:from \S+ )?import (\([^)]*\)|.+)$", re.MULTILINE)
+_METHOD = re.compile(r"^    def (\w+)\(self[^)]*\)(?: -> ([^:]+))?:", re.MULTILINE)
+_CLASS_ASSIGNED = re.compile(r"^    (\w+)(?:: [^=\n]+)? = (\w*)", re.MULTILINE)
+
+
+@functools.cache
+def _text(module: Path) -> str:
+    return module.read_text()
+
+
+@functools.cache
+def _literal(module: Path, name: str) -> list[str]:
+    """The names a generated module lists in `name` at module level (a tuple's strings, or
+    a dict's keys; none where it has no `name`)."""
+    found = re.search(rf"^{name}(?:: [^=\n]+)? = (.*?)(?=^\S)", _text(module), re.M | re.S)
+    if found is None:
+        return []
+    value = found.group(1)
+    if value.startswith("{"):
+        return re.findall(r'^    "(\w+)": ', value, re.MULTILINE)
+    return re.findall(r'"(\w+)"', value)
+
+
+@functools.cache
+def _spec_prefixes(package: Path) -> tuple[str, ...]:
+    """The prefixes of the layout names a system's specs make: each module's and operator's
+    mnemonic, each world field's, each process's records."""
+    layout = package / "layout.py"
+    modules = [*_literal(layout, "MODULES"), *_literal(layout, "OPERATORS")]
+    return (*(f"{m.upper()}_" for m in modules), "WORLD_", "PROCESS_", "PACE_")
+
+
+def _module_level(module: Path, blocks: bool = True) -> tuple[set[str], set[str]]:
+    """(every module-level name of a generated module, those its spec names: its functions
+    and classes and, with `blocks`, what its own blocks assign)."""
+    text = _text(module)
+    own = set(_DEFINED.findall(text))
+    block = False
+    for line in text.splitlines() if blocks else ():
+        if line.startswith("#"):
+            block = line.startswith(OWN_BLOCKS) or (block and line.startswith("# "))
+        elif not line:
+            block = False
+        elif block and (m := re.match(r"(\w+) = ", line)):
+            own.add(m.group(1))
+    names = set(_ASSIGNED.findall(text)) | own
+    for imported in _IMPORTS.findall(text):
+        for item in imported.strip("()").split(","):
+            words = item.split()
+            names |= {words[-1].split(".")[0]} if words else set()
+    return names, own
+
+
+def _controllers(package: Path) -> list[Path]:
+    """A package's controller modules (not its operator modules, layout, process plans)."""
+    found = []
+    for module in sorted(package.glob("*.py")):
+        text = module.read_text()
+        if module.stem != "layout" and not module.stem.startswith(("main_", "_")):
+            found += [module] if "(OperatorModule):" not in text else []
+    return found
+
+
+def test_the_reserved_module_names_are_exactly_what_generated_modules_have() -> None:
+    """naming.RUNTIME_NAMES is every module-level name a generated controller module has
+    that its spec does not name (so a constant, state or function named like one is
+    refused), and nothing else (a name nothing generates would refuse a valid spec: once
+    `SEQ`, `SEQS`, `MODE` were). Read from every committed package (kept current by
+    test_generated_current)."""
+    fixed: set[str] = set()
+    everywhere: set[str] = set()
+    for package in GENERATED:
+        prefixes = (*_spec_prefixes(package), "REASON_")
+        for module in _controllers(package):
+            names, own = _module_level(module)
+            everywhere |= names
+            fixed |= {n for n in names - own if not n.startswith(prefixes)}
+    assert fixed - naming.RUNTIME_NAMES == set(), "generated but not reserved"
+    assert naming.RUNTIME_NAMES - everywhere == set(NOT_SHIPPED), "reserved but never generated"
+
+
+def _class_names(module: Path, package: Path) -> set[str]:
+    """The attributes and methods of a generated controller class that its spec does not
+    name: not a command's table, a predicate, a hook's method, a world field's, parameter's,
+    local's, result's, plan's or subordinate's attribute, a `for:` counter."""
+    text = _text(module)
+    accepts = text.split(f"# Commands {module.stem} accepts", 1)[1]
+    commands = re.findall(r"^(\w+) = ", accepts.split("\n\n")[0], re.MULTILINE)
+    spec = {naming.command_method(c) for c in commands}
+    fixed = {"__slots__"}
+    for name, returns in _METHOD.findall(text):
+        (spec if returns == "bool" else fixed).add(name)  # bool: a predicate
+    for name, value in _CLASS_ASSIGNED.findall(text):
+        (spec if value == "hook" else fixed).add(name)  # hook(...): a hook's method
+    fixed |= set(re.findall(r"\bself\.(\w+)", text))
+    world = tuple(f"world_{f}" for f in _literal(package / "layout.py", "WORLD"))
+    subs = tuple(p.lower() for p in _spec_prefixes(package)[:-3])
+    made = ("arg_", "var_", "result_", "plan_", *subs)
+    held = re.compile(r"held_\w+_\d+")
+    return {n for n in fixed - spec if not (n.startswith(made) or n in world or held.fullmatch(n))}
+
+
+def test_the_reserved_class_names_are_exactly_what_generated_classes_have() -> None:
+    """naming.CLASS_NAMES is every attribute and method of a generated controller class that
+    no spec name makes, and nothing else (`pre_process` and the other QQ1 steps are comments
+    in `run_cycle`, not methods, so a command or predicate may take their names)."""
+    fixed: set[str] = set()
+    for package in GENERATED:
+        for module in _controllers(package):
+            fixed |= _class_names(module, package)
+    assert fixed - naming.CLASS_NAMES == set(), "generated but not reserved"
+    assert naming.CLASS_NAMES - fixed == set(), "reserved but never generated"
+
+
+def test_the_reserved_layout_names_are_exactly_what_generated_layouts_have() -> None:
+    """naming.LAYOUT_NAMES is every module-level name of a generated layout module that no
+    spec name makes (a controller's buffers, a process's records, a world field's, an
+    operator's channels), and nothing else (`NamedTuple` and `STATUS_NAMES` no longer are)."""
+    fixed: set[str] = set()
+    for package in GENERATED:
+        prefixes = _spec_prefixes(package)
+        names, _ = _module_level(package / "layout.py", blocks=False)
+        fixed |= {n for n in names if not n.startswith(prefixes)}
+    spec_like = {n for n in naming.LAYOUT_NAMES if n.startswith(("WORLD_", "PROCESS_", "PACE_"))}
+    assert fixed - naming.LAYOUT_NAMES == set(), "generated but not reserved"
+    assert naming.LAYOUT_NAMES - fixed - spec_like == set(), "reserved but never generated"

@@ -219,7 +219,7 @@ def test_expectations_on_reasons_and_results_are_met_or_reported(
             "E415",
             (9, 5),
             "expected figure `fx.result.clamped`: `fx` has no result `clamped`",
-            "no results of fx is declared",
+            "no results of fx are declared",
         ),
         (
             "mission.reason: OPERATOR_REFUSED",

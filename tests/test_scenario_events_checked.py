@@ -113,7 +113,7 @@ def test_simulated_controllers_and_the_modules_their_stand_ins_replace(
         (
             "E411",
             "`pp` cannot be simulated in this scenario: system.yaml declares no stand-in for it",
-            "declared controllers with a stand-in here: `cr`",
+            "process `pc1` can simulate `cr`",
         ),
     ]
     assert said(tmp_path, miner, "process: pc2\nsimulate: [cr]\n")[0][:2] == (

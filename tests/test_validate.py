@@ -243,7 +243,7 @@ CASES = [
         ],
         "E214",
         "co.yaml:  |co_position_for_cusp:",
-        "hook `co_position_for_cusp` is called with 3 argument(s) but "
+        "hook `co_position_for_cusp` is called with 3 arguments but "
         "`miner_hooks.co.co_position_for_cusp` takes 2",
     ),
     Case(
@@ -280,8 +280,8 @@ CASES = [
         [("co.yaml", SEND_VG_2, SEND_VG_2.replace(", y: world.goal_y", ""))],
         "E217",
         "co.yaml:|send: vg.TRAM_TO_XY\n              with: {x: world.goal_x}\n",
-        "`vg.TRAM_TO_XY` needs parameter(s) y",
-        hint="give them under `with:`",
+        "`vg.TRAM_TO_XY` needs parameter y",
+        hint="give it under `with:`",
     ),
     Case(
         "unknown-send-parameter",

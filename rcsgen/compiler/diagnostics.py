@@ -188,14 +188,28 @@ def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     return f"did you mean `{close[0]}`?" if close else ""
 
 
+def counted(count: int, noun: str, plural: str = "") -> str:
+    """A count and its noun, singular or plural by the count: `1 argument`, `2 arguments`
+    (`plural` where adding an s is wrong)."""
+    return f"{count} {noun if count == 1 else plural or noun + 's'}"
+
+
+def listed(noun: str, names: Iterable[str], plural: str = "") -> str:
+    """A noun and the names it counts, singular or plural by them: `parameter x`,
+    `parameters x, y`."""
+    names = list(names)
+    return f"{noun if len(names) == 1 else plural or noun + 's'} {', '.join(names)}"
+
+
 def known_names_hint(kind: str, candidates: Iterable[str], name: str = "") -> str:
-    """A hint naming the close match, else the declared names of that kind."""
+    """A hint naming the close match, else the declared names of that kind (`kind` in the
+    plural: "predicates", "results of cc")."""
     names = sorted(set(candidates))
     near = did_you_mean(name, names) if name else ""
     if near:
         return near
     if not names:
-        return f"no {kind} is declared"
+        return f"no {kind} are declared"
     shown = ", ".join(f"`{n}`" for n in names[:8])
     more = f" and {len(names) - 8} more" if len(names) > 8 else ""
     return f"declared {kind}: {shown}{more}"

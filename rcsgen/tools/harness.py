@@ -27,7 +27,7 @@ from types import ModuleType
 from typing import Any
 
 from ..compiler.back_end import emit
-from ..compiler.diagnostics import SpecError
+from ..compiler.diagnostics import Diagnostics, SpecError
 from ..compiler.frontend import compile_paths
 from ..compiler.ir import IRSystem
 from ..runtime.contract import enum_code, enum_name, plan_slots, result_values
@@ -104,10 +104,23 @@ def _use_hooks_from(hooks_dir: Path) -> None:
 
 
 def generate(spec_dir: Path) -> tuple[Path, str]:
-    """Generate the one system in `spec_dir` into a new scratch directory: (it, the name)."""
+    """Generate the one system in `spec_dir` into a new scratch directory: (it, the name).
+    SpecError with every problem, as `rcsgen build` reports them; a directory of several
+    systems is one error at each of their names (E224): the harness runs one."""
     front = compile_paths([spec_dir])
-    if front.diagnostics.errors or len(front.systems) != 1:
+    if front.diagnostics.errors:
         raise SpecError(front.diagnostics)
+    if len(front.systems) != 1:
+        names = ", ".join(f"`{s.name}` ({s.name_span.file})" for s in front.systems)
+        diags = Diagnostics()
+        for system in front.systems:
+            diags.error(
+                system.name_span,
+                "E224",
+                f"`{spec_dir}` holds {len(front.systems)} systems, {names}: the harness runs one",
+                f"give one system's directory: `{Path(system.name_span.file).parent}`",
+            )
+        raise SpecError(diags)
     system = front.systems[0]
     scratch = Path(tempfile.mkdtemp(prefix="rcsgen-harness-"))
     write_package(system, scratch)

@@ -8,8 +8,10 @@ from pathlib import Path
 
 from ..compiler.diagnostics import Diagnostics
 from ..compiler.frontend import Frontend
+from ..compiler.ir import IRSystem
 from ..compiler.prove import INFINITE, diagnostics, prove_front, trace_text
 from ..compiler.prove.handshake import prove_handshake
+from ..compiler.prove.properties import Finding
 from ..compiler.prove.system import SystemProof
 from .prove_smv import write_smv
 from .replay import replay_all
@@ -42,6 +44,22 @@ def bounds_text(proof: SystemProof) -> list[str]:
                 f"    {b.start:<8} d={_cycles(b.cycles):<6} via {' > '.join(b.path)}{where}"
             )
     return lines
+
+
+def _counter_example(proof: SystemProof, system: IRSystem, f: Finding) -> list[str]:
+    """A finding's counter-example, cycle by cycle; for one no run shows (the execution
+    order's W704), the order of the processes its controller runs in."""
+    if f.trace:
+        return [f"  counter-example of {f.code} in {f.controller} ({f.verdict}):"] + [
+            trace_text(proof, f)
+        ]
+    order = [
+        f"{p.name}: {' > '.join(p.modules)}" for p in system.processes if f.controller in p.modules
+    ]
+    return [
+        f"  {f.code} in {f.controller} ({f.verdict}): no run, the execution order shows it: "
+        + ("; ".join(order) or "none")
+    ]
 
 
 def run_prove(
@@ -99,9 +117,7 @@ def run_prove(
                 + f": {prop.text}"
             )
         for i in sorted(shown):
-            f = proof.findings[i]
-            lines.append(f"  counter-example of {f.code} in {f.controller} ({f.verdict}):")
-            lines.append(trace_text(proof, f))
+            lines += _counter_example(proof, system, proof.findings[i])
         lines += [f"  note: {n}" for n in proof.notes]
         if proven is False:
             proof.notes.append(said)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ...runtime.contract import BUILTIN_COMMANDS
 from .. import expressions as expr
-from ..diagnostics import Diagnostics, Span, Subject, known_names_hint
+from ..diagnostics import Diagnostics, Span, Subject, known_names_hint, listed
 from ..front_end import model
 from ..front_end.model import Command, ControllerSpec, Located, PlanVerb, Rule, SystemSpec
 from ..types import BOOL, FLOAT, INT, Enum, Str, Type, annotation_accepts, hook_words
@@ -646,11 +646,9 @@ def _check_world_access(spec: ControllerSpec, world: dict[str, Type], diags: Dia
 
 
 # Names a function or a `let` value cannot take: they are Python names of the generated
-# method or module (a `let` is a local of its table's method, a function a module function).
-_PYTHON_NAMES = frozenset(
-    {"self", "state", "hooks", "buf", "command", "perf_counter_ns", "Struct", "is_real"}
-    | {"is_integer", *expr.BUILTINS}
-)
+# method or module (a `let` is a local of its table's method beside `self` and `state`, a
+# function a module-level function beside the module's runtime names).
+_PYTHON_NAMES = frozenset({"self", "state", *naming.RUNTIME_NAMES, *expr.BUILTINS})
 
 
 def _reserved(name: str) -> str:
@@ -1496,8 +1494,8 @@ class _ControllerChecker:
             self.diags.error(
                 send.span,
                 "E217",
-                f"`{send.sub}.{send.command}` needs parameter(s) {', '.join(missing)}",
-                "give them under `with:`",
+                f"`{send.sub}.{send.command}` needs {listed('parameter', missing)}",
+                f"give {'it' if len(missing) == 1 else 'them'} under `with:`",
             )
         return Send(send.sub, send.command, tuple(args), send)
 

@@ -15,7 +15,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..diagnostics import Diagnostics, SpecError
+from ..diagnostics import Diagnostics, SpecError, counted
 from ..front_end import loader, model
 from ..front_end.model import ControllerSpec, Located
 from ..types import Annotation, Type, annotation_fits, hook_words
@@ -201,7 +201,7 @@ def _check_hook(
         diags.error(
             hook.span,
             "E214",
-            f"hook `{hook.name}` is called with {given} argument(s)"
+            f"hook `{hook.name}` is called with {counted(given, 'argument')}"
             f"{' (the hook state, then its args)' if module.stateful else ''} but "
             f"`{module.name}.{hook.name}` takes {_positional(node)}",
             "make `args:` match the function's parameters",
@@ -244,7 +244,7 @@ def _check_planner(
         diags.error(
             plan.planner.span,
             "E294",
-            f"planner `{name}` of plan `{plan.name}` is called with {given} argument(s)"
+            f"planner `{name}` of plan `{plan.name}` is called with {counted(given, 'argument')}"
             f"{' (the hook state, then its args)' if stateful else ''} but "
             f"`{module}.{name}` takes {_positional(node)}",
             "make the plan's `args:` match the function's parameters",
@@ -294,7 +294,8 @@ def _return_problems(
             found.append(f"hook `{name}` returns nothing at line {line}; `returns:` names {named}")
         elif count is not None and want > 1 and count != want:
             found.append(
-                f"hook `{name}` returns {count} value(s) at line {line}; `returns:` names {named}"
+                f"hook `{name}` returns {counted(count, 'value')} at line {line}; `returns:` "
+                f"names {named}"
             )
         elif count is not None and want == 1 and count > 1:
             found.append(

@@ -61,21 +61,27 @@ from .tables import TargetKind
 RESERVED_MODULE_NAMES = {
     "world": "`world.<field>` names a world field in every expression and assignment",
 }
-# Methods every generated controller class has (QQ1 shape).
-FIXED_METHODS = frozenset(
-    {"run_cycle", "pre_process", "check_if_new_command", "decision_process", "post_process"}
-)
+# Methods every generated controller class has: the QQ1 cycle, its four steps written out
+# in one method (Appendix D's pre_process ... post_process are comments in it, not methods).
+FIXED_METHODS = frozenset({"run_cycle"})
 # Modules every generated package has besides one per controller.
 FIXED_MODULES = frozenset({"layout", "rcs", "__init__", "__main__", "hooks"})
-# Module-level names every generated controller module imports from the runtime and layout.
+# Module-level names a generated controller module has, whatever its spec names, exactly
+# (tests/test_module_names.py compares them with every committed generated module):
 RUNTIME_NAMES = frozenset(
-    {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "NO_RULE", "STATUS", "MODE", "PERF"}
-    | {"INPUTS", "INPUTS_AT", "SEQS", "SEQS_AT", "SEQ", "READ_TRIES", "Struct", "words"}
-    | {"SEQ_WORDS"}
+    # what it imports from the contract (rcs/contract.py): statuses its rules compare with
+    # or report (NOT_READY only where a guard names it), the block's word view, the
+    # seqlock's tries, a string field's codec, an error's cause, a plan's problem
+    {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "NO_RULE", "STATUS", "PERF", "words"}
+    | {"READ_TRIES", "decode_text", "encode_text", "caused", "HookError", "plan_problem"}
+    # what it defines: its inputs' one read and the sequence words read again after it
+    | {"INPUTS", "INPUTS_AT", "SEQ_WORDS"}
+    # the standard library's, and its hooks module
+    | {"Struct", "perf_counter_ns", "hooks"}
     # the hook calls: the helper that makes each a method, the factory's deadline
     | {"hook", "within", "FACTORY_DEADLINE"}
     # a world writer's overrides (rcs/override.py): the layout's table and flag offset
-    | {"OVERRIDE", "OVERRIDDEN_AT"}
+    | {"OVERRIDE", "OVERRIDDEN_AT", "held"}
 )
 # Prefixes of the attributes generated from spec names (world fields, params, locals).
 ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_", "result_")
@@ -96,7 +102,8 @@ BUFFER_ATTRIBUTES = tuple(
     for name in field_names(fields)
 )
 
-# Attributes and methods of every generated controller class that no spec name produces.
+# Attributes and methods of every generated controller class that no spec name produces,
+# exactly (tests/test_module_names.py compares them with every committed generated class).
 CLASS_NAMES = frozenset(
     {
         *FIXED_METHODS,
@@ -112,7 +119,6 @@ CLASS_NAMES = frozenset(
         "status_dirty",
         "perf_seq",
         "buf",
-        "cycle_start",
         "hook_state",
         "ticks",  # cycles in the current state (`after:`)
         "words",  # its sequence words (rcs.contract.words over its buffer)
@@ -121,12 +127,12 @@ CLASS_NAMES = frozenset(
         *BUFFER_ATTRIBUTES,
     }
 )
-# Module-level names of the generated layout module that no spec name produces.
+# Module-level names of the generated layout module that no spec name produces, exactly
+# (tests/test_module_names.py compares them with every committed layout).
 LAYOUT_NAMES = frozenset(
     {
         "annotations",
         "Struct",
-        "NamedTuple",
         "SIZE",
         "STATUS",
         "MODE",
@@ -141,7 +147,6 @@ LAYOUT_NAMES = frozenset(
         "WORLD_INITIAL",
         "COMMAND_NAMES",
         "STATE_NAMES",
-        "STATUS_NAMES",
         "SIMULATORS",
         "RULES",
         "initialise",
@@ -176,6 +181,33 @@ LAYOUT_NAMES = frozenset(
         "SEGMENT_GROUP",
         "WORLD_WRITERS",
         "GROUND_TRUTH",
+        "ACTUATED_BY",
+        "SAFE_VALUES",
+        "OVERRIDE",
+        "OVERRIDES",
+        "OVERRIDES_AT",
+        "OVERRIDDEN_AT",
+        "CAUSE_MODULES",
+        "REASON_NAMES",
+        "ON_LOST_CONTINUE",
+        "REQUESTS",
+        "TIME_IN_STATE",
+        "ENUMS",
+        # a system with operator modules
+        "ANSWER",
+        "ANSWERS",
+        "ANSWER_FIELDS",
+        "OPERATORS",
+        "OPERATOR_STATES",
+        "INSTRUCTIONS",
+        "TASK_RESULTS",
+        # a system with fieldbus devices
+        "Device",
+        "Point",
+        "DEVICE_FIELDS",
+        "IO_DEVICES",
+        "IO_RECORDS",
+        "IO_DEPENDENTS",
     }
 )
 # Suffixes of the attributes a controller keeps for each subordinate (`cc_status`, ...).
@@ -608,9 +640,10 @@ def _check_layout(
                 what = f"`{sub.value}`'s channel to `{spec.name}`"
                 for suffix in CHANNEL_SUFFIXES:
                     names.claim(channel_prefix(sub.value, spec.name) + suffix, what, sub.span)
-    for process in system.processes:
-        name = f"PROCESS_{process.name.upper()}_AT"
-        names.claim(name, f"process `{process.name}`", span_of(process.name, process.span))
+    for process in system.processes:  # its control record and its pacing record
+        span = span_of(process.name, process.span)
+        for name in (f"PROCESS_{process.name.upper()}_AT", f"PACE_{process.name.upper()}_AT"):
+            names.claim(name, f"process `{process.name}`", span, ("process", process.name))
     for field_name, f in system.world.items():
         span = span_of(field_name, f.span)
         up = f"WORLD_{field_name.upper()}"

@@ -21,7 +21,7 @@ import re
 
 from ..diagnostics import Diagnostics, Span, did_you_mean
 from ..expressions.nodes import STATUS_NAMES
-from ..expressions.resolve import _parse, offset_span
+from ..expressions.resolve import _parse, char_at
 from ..front_end.model import ControllerSpec, Located, SystemSpec, UserProperty
 from ..ir import IRPropAtom, IRProperty, IRPropExpr, PropKind
 
@@ -74,6 +74,7 @@ class _Reader:
         self, names: _Names, span: Span, diags: Diagnostics, alias: dict[str, str] | None = None
     ) -> None:
         self.names, self.span, self.diags = names, span, diags
+        self.source: object = None  # the expression read, as loaded (`char_at`)
         self.alias = alias or {}  # a template's names -> its instance's (section 18)
         self.modules: dict[str, Span] = {}  # module named -> where
         self.own: dict[str, Span] = {}  # modules whose `.state` is read (must be the scope)
@@ -81,7 +82,7 @@ class _Reader:
         self.local: list[tuple[IRPropAtom, Span]] = []  # writes()/safe(): the scope's
 
     def at(self, node: ast.AST) -> Span:
-        return offset_span(self.span, getattr(node, "lineno", 1), getattr(node, "col_offset", 0))
+        return char_at(self.source, self.span, getattr(node, "col_offset", 0))
 
     def fail(self, node: ast.AST, code: str, message: str, hint: str = "") -> _Fail:
         self.diags.error(self.at(node), code, message, hint)
@@ -273,12 +274,12 @@ def _local(reader: _Reader, spec: ControllerSpec, atom: IRPropAtom, at: Span) ->
 
 
 def _expression(reader: _Reader, raw: Located) -> IRPropExpr:
+    reader.span, reader.source = char_at(raw.value, raw.span, 0), raw.value
     if not isinstance(raw.value, str | bool):
         raise reader.fail(_START, "E713", "a property is a condition")
-    tree = _parse(str(raw.value), raw.span, reader.diags)
+    tree = _parse(raw.value, reader.span, reader.diags)
     if tree is None:
         raise _Fail()
-    reader.span = raw.span
     return reader.expr(tree.body)
 
 
@@ -315,7 +316,7 @@ def _one(
                 if within
                 else f"in the same cycle {prop.then.value}"
             )
-        reader.span = prop.span
+        reader.span, reader.source = prop.span, None
         scope = _scope(reader, owner, prop.span)
     except _Fail:
         return None

@@ -17,7 +17,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 from ...runtime.contract import text_problem
-from ..diagnostics import Diagnostics, Span, known_names_hint
+from ..diagnostics import Diagnostics, Span, counted, known_names_hint
+from ..front_end.loader import char_span
 from ..types import (
     BOOL,
     FLOAT,
@@ -88,18 +89,25 @@ _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv
 _BINOPS[ast.Mod] = "%"
 _CMPOPS = {ast.Eq: "==", ast.NotEq: "!=", ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">="}
 _UNARY = {ast.Not: "not", ast.USub: "-", ast.UAdd: "+"}
+# What a form a spec expression may not use is, in words, with its verb ("are", "is").
 _NODE_WORDS = {
-    ast.Subscript: "subscripts",
-    ast.Lambda: "lambdas",
-    ast.ListComp: "comprehensions",
-    ast.SetComp: "comprehensions",
-    ast.DictComp: "comprehensions",
-    ast.GeneratorExp: "comprehensions",
-    ast.JoinedStr: "f-strings",
-    ast.NamedExpr: "assignment expressions (:=)",
-    ast.Starred: "starred expressions",
-    ast.Await: "await",
-    ast.Yield: "yield",
+    ast.Subscript: "subscripts are",
+    ast.Lambda: "lambdas are",
+    ast.ListComp: "comprehensions are",
+    ast.SetComp: "comprehensions are",
+    ast.DictComp: "comprehensions are",
+    ast.GeneratorExp: "comprehensions are",
+    ast.JoinedStr: "f-strings are",
+    ast.NamedExpr: "assignment expressions (:=) are",
+    ast.Starred: "starred expressions are",
+    ast.Await: "`await` is",
+    ast.Yield: "`yield` is",
+    ast.YieldFrom: "`yield from` is",
+    ast.List: "lists are",
+    ast.Tuple: "tuples are",
+    ast.Set: "sets are",
+    ast.Dict: "dictionaries are",
+    ast.Slice: "slices are",
 }
 
 
@@ -112,8 +120,10 @@ class _Resolver:
         self.scope, self.span, self.diags = scope, span, diags
         self.want = want  # the enumeration a bare value name is looked up in, if any
 
+    source: object = None  # the expression as loaded: where its characters are written
+
     def at(self, node: ast.AST) -> Span:
-        return offset_span(self.span, getattr(node, "lineno", 1), getattr(node, "col_offset", 0))
+        return char_at(self.source, self.span, getattr(node, "col_offset", 0))
 
     def fail(self, node: ast.AST, code: str, message: str, hint: str = "") -> _Fail:
         self.diags.error(self.at(node), code, message, hint)
@@ -122,11 +132,11 @@ class _Resolver:
     def expr(self, node: ast.AST) -> Expr:
         method: Callable[[ast.AST], Expr] | None = getattr(self, "_" + type(node).__name__, None)
         if method is None:
-            what = _NODE_WORDS.get(type(node), f"`{type(node).__name__}` expressions")
+            what = _NODE_WORDS.get(type(node), "this form of expression is")
             raise self.fail(
                 node,
                 "E102",
-                f"{what} are not allowed in a spec expression",
+                f"{what} not allowed in a spec expression",
                 "expressions may use literals, and/or/not, comparisons, arithmetic, `a if c "
                 "else b`, declared names, world.<field>, <sub>.status, <sub>.command and "
                 "calls of predicates and functions",
@@ -302,7 +312,8 @@ class _Resolver:
                 raise self.fail(
                     node,
                     "E263",
-                    f"function `{name}` takes {len(params)} argument(s), not {len(node.args)}",
+                    f"function `{name}` takes {counted(len(params), 'argument')}, not "
+                    f"{len(node.args)}",
                 )
             args = []
             for index, (arg, wanted) in enumerate(zip(node.args, params, strict=True)):
@@ -551,6 +562,25 @@ def offset_span(base: Span, lineno: int, col_offset: int) -> Span:
     return Span(base.file, base.line + lineno - 1, col_offset + 1)
 
 
+def expression_text(text: str) -> str:
+    """The text an expression is parsed from: a multi-line one (a `>-` or `|` block, a
+    quoted scalar over several lines) read as one line, its whitespace runs one space."""
+    if "\n" in text.strip() or "\r" in text:
+        return " ".join(text.split())
+    return text.strip()
+
+
+def char_at(source: object, base: Span, index: int) -> Span:
+    """Where character `index` of expression `source`'s text (`expression_text`) is written:
+    in a quoted or block scalar, found in the file (`char_span`); else `index` columns
+    after `base`, where a plain one-line scalar starts."""
+    if isinstance(source, str):
+        found = char_span(source, expression_text(source), index)
+        if found is not None:
+            return found
+    return Span(base.file, base.line, base.col + index)
+
+
 def compile_expr(
     source: object, span: Span, scope: Scope, diags: Diagnostics, expect: Type | None = None
 ) -> Expr | None:
@@ -568,10 +598,12 @@ def compile_expr(
             return None
         result: Expr = Const(_type_of_value(source), source)
     else:
-        tree = _parse(str(source), span, diags)
+        span = char_at(source, span, 0)  # its first character, past a quote or indicator
+        tree = _parse(source, span, diags)
         if tree is None:
             return None
         resolver = _Resolver(scope, span, diags, expect if isinstance(expect, Enum) else None)
+        resolver.source = source
         try:
             result = resolver.expr(tree.body)
         except _Fail:
@@ -594,18 +626,17 @@ def compile_expr(
     return result
 
 
-def _parse(text: str, span: Span, diags: Diagnostics) -> ast.Expression | None:
+def _parse(source: object, span: Span, diags: Diagnostics) -> ast.Expression | None:
     """Expression text as a Python syntax tree, or None after its problem: a character that
     is not printable ASCII, a `#` (a comment would drop the rest), a syntax error (E101),
-    nesting beyond MAX_DEPTH (E102)."""
-    if "\n" in text.strip() or "\r" in text:
-        text = " ".join(text.split())
-    found = _NOT_TEXT.search(text.strip())  # (a character loop in Python was slower)
+    nesting beyond MAX_DEPTH (E102); each at its character (`span`: the first one's)."""
+    text = expression_text(str(source))
+    found = _NOT_TEXT.search(text)  # (a character loop in Python was slower)
     odd = found.start() if found else None
     if odd is not None:  # Python would accept (and NFKC-fold) non-ASCII identifiers
-        char = text.strip()[odd]
+        char = text[odd]
         diags.error(
-            offset_span(span, 1, odd),
+            char_at(source, span, odd),
             "E101",
             f"invalid expression: character {char!r} (U+{ord(char):04X}) is not allowed",
             "expressions are ASCII: names, numbers, operators and parentheses",
@@ -615,21 +646,22 @@ def _parse(text: str, span: Span, diags: Diagnostics) -> ast.Expression | None:
         comment = text[text.index("#") + 1 :].strip()
         shown = comment if len(comment) <= 40 else comment[:37] + "..."
         diags.error(
-            span,  # the expression's start: in a block scalar, columns do not map
+            char_at(source, span, text.index("#")),
             "E101",
             f"invalid expression: `#` is not allowed (`# {shown}`)",
             "inside a `>-` or `|` block a YAML comment is part of the expression and would "
             "silently drop the rest of it: put the comment on a line of its own, outside",
         )
         return None
-    tree = _parsed(text.strip())
+    tree = _parsed(text)
     if tree is not None:
         return tree
     try:
-        tree = ast.parse(text.strip(), mode="eval")
+        tree = ast.parse(text, mode="eval")
     except SyntaxError as exc:
-        where = offset_span(span, exc.lineno or 1, max((exc.offset or 1) - 1, 0))
-        shown = text.strip() if len(text.strip()) <= 80 else text.strip()[:77] + "..."
+        # the text is one line; no offset (0): the error is at its end
+        where = char_at(source, span, (exc.offset or len(text) + 1) - 1)
+        shown = text if len(text) <= 80 else text[:77] + "..."
         diags.error(where, "E101", f"invalid expression: {exc.msg}", f"in `{shown}`")
         return None
     except (RecursionError, MemoryError, ValueError):  # the parser's own limits

@@ -18,7 +18,7 @@ import pathlib
 import re
 import stat
 from dataclasses import dataclass
-from typing import Any, Protocol, cast
+from typing import Any, NamedTuple, Protocol, cast
 
 import yaml
 
@@ -45,9 +45,12 @@ class _Mark(Protocol):
 
 
 class LocStr(str):
-    """A string scalar (value or key) that remembers where it starts."""
+    """A string scalar (value or key) that remembers where it starts; a quoted, block or
+    multi-line one also where it is written (`written`), so a character of its text can be
+    found in the file (`char_span`)."""
 
     span: Span
+    written: Written | None = None
 
     def __new__(cls, value: str, span: Span) -> LocStr:
         self = str.__new__(cls, value)
@@ -86,6 +89,57 @@ class LocList(list[Any]):
         super().__init__()
         self.span = span
         self.item_spans = []
+
+
+class Written(NamedTuple):
+    """Where a scalar's text is written: the file's text (shared, not copied), where the
+    scalar starts and ends in it, and its style (`'`, `"`, `|`, `>`; '' plain)."""
+
+    source: str
+    start: int
+    end: int
+    style: str
+
+
+def _remember(value: LocStr, source: str, event: yaml.ScalarEvent) -> None:
+    """Record where a string scalar whose text is not its first line as written is written
+    (quoted, a block, or plain over several lines); a plain one-line scalar's text is."""
+    start, end = event.start_mark, event.end_mark
+    if start is not None and end is not None and (event.style or start.line != end.line):
+        value.written = Written(source, start.index, end.index, event.style or "")
+
+
+def char_span(node: object, text: str, index: int) -> Span | None:
+    """Where character `index` of `text` is written in the file, `text` being `node`'s
+    value with its whitespace changed (an expression's runs of spaces and line breaks read
+    as one space); past its end: just after its last character. None when `node` is not a
+    scalar `written` recorded, or its characters are not found in order.
+
+    Each character but whitespace is looked for in the file after the one before it, so
+    what quoting adds (the quotes, a block's indicator line and indentation, escapes,
+    folded line breaks) is stepped over."""
+    span, where = getattr(node, "span", None), getattr(node, "written", None)
+    if not isinstance(span, Span) or not isinstance(where, Written):
+        return None
+    source, at, stop = where.source, where.start, where.end
+    if where.style in ("'", '"'):
+        at, stop = at + 1, stop - 1
+    elif where.style in ("|", ">"):  # the text starts on the line after the indicator's
+        at = source.find("\n", at, stop) + 1
+        if at == 0:
+            return None
+    found = at
+    for char in text[: index + 1]:
+        if char.isspace():
+            continue
+        found = source.find(char, at, stop)
+        if found < 0:
+            return None
+        at = found + 1
+    if index >= len(text) or text[index].isspace():
+        found = at
+    line = source.count("\n", 0, found) + 1
+    return Span(span.file, line, found - source.rfind("\n", 0, found))
 
 
 def span_of(node: object, fallback: Span) -> Span:
@@ -158,9 +212,10 @@ _ENDS = (yaml.MappingEndEvent, yaml.SequenceEndEvent)
 class _Builder:
     """Builds located values from parser events, collecting diagnostics."""
 
-    def __init__(self, path: str, diags: Diagnostics) -> None:
+    def __init__(self, path: str, diags: Diagnostics, text: str = "") -> None:
         self.path = path
         self.diags = diags
+        self.text = text  # the file's text, where a quoted or block scalar is found again
         self.stack: list[_Frame] = []
         self.result: object = None
         self.documents = 0
@@ -237,7 +292,10 @@ class _Builder:
             shown = text if len(text) <= 40 else text[:37] + "..."
             hint = f"numbers must be finite; `{shown}` is not (quote it to mean a string)"
             self.diags.error(span, "E004", "NaN and infinity are not allowed", hint)
-        self.attach(LocStr(value, span) if isinstance(value, str) else value, span, reported)
+        if isinstance(value, str):
+            value = LocStr(value, span)
+            _remember(value, self.text, event)
+        self.attach(value, span, reported)
 
     def attach(self, value: object, span: Span, reported: bool) -> None:
         """Put a finished node into its parent, or make it the document's value."""
@@ -373,11 +431,11 @@ def _plain(text: str, path: str, loader: type) -> object:
                 return _UNUSUAL
             span = _new_tuple(Span, (path, mark.line + 1, mark.column + 1))
             value = event.value
-            if not event.style and not _WORD(value):  # a plain scalar: maybe not a string
-                value = _plain_value(value)
-                if isinstance(value, float) and not math.isfinite(value):
+            if event.style or not _WORD(value):  # not a name: typed, a string located
+                value = _scalar(event, span, text)
+                if value is _UNUSUAL:
                     return _UNUSUAL
-            if isinstance(value, str):
+            else:  # a name (most keys and values): a string
                 value = _new_str(LocStr, value)
                 value.span = span
         elif kind is _MAPPING or kind is _SEQUENCE:
@@ -427,6 +485,22 @@ def _plain(text: str, path: str, loader: type) -> object:
     return result
 
 
+def _scalar(event: Any, span: Span, text: str) -> object:
+    """A scalar that is not a plain name, as `_Builder` loads it: a plain one typed by the
+    core schema (`_UNUSUAL` for NaN or infinity), a string with where it is written when
+    its text is not its first line as written (`_remember`)."""
+    value = event.value
+    if not event.style:
+        value = _plain_value(value)
+        if isinstance(value, float) and not math.isfinite(value):
+            return _UNUSUAL
+    if isinstance(value, str):
+        value = _new_str(LocStr, value)
+        value.span = span
+        _remember(value, text, event)
+    return value
+
+
 _SCALAR, _MAPPING, _SEQUENCE = yaml.ScalarEvent, yaml.MappingStartEvent, yaml.SequenceStartEvent
 _MAPPING_END, _SEQUENCE_END = yaml.MappingEndEvent, yaml.SequenceEndEvent
 
@@ -434,7 +508,7 @@ _MAPPING_END, _SEQUENCE_END = yaml.MappingEndEvent, yaml.SequenceEndEvent
 def _build(text: str, display_path: str, loader: type) -> tuple[Diagnostics, object]:
     """Feed one parser's events to a builder: the diagnostics and the loaded value."""
     diags = Diagnostics()
-    builder = _Builder(display_path, diags)
+    builder = _Builder(display_path, diags, text)
     try:
         for event in yaml.parse(text, Loader=loader):
             builder.feed(event)

@@ -206,6 +206,12 @@ def _hold_times(proof: SystemProof) -> None:
 
 # The properties whose violation is the last cycle of a run from a state that holds all it
 # needs (flags of the state, not of the path): another run to that cycle shows it as well.
+# Not the others: W704 and W705 are a bound's worst run (its length is the finding) or the
+# execution order (no run); W709, a spec's own property, may read what the path did - an
+# obligation opened cycles before (`whenever ... within`), an actuator left unsafe (`safe()`)
+# - and even a property of one cycle reads what its every_cycle rules wrote (`writes()`),
+# in which the cycles `numbers.search` takes as alike may differ: the run it finds need not
+# break the property.
 SEARCHED = frozenset({"W701", "W702", "W703", "W706", "W707", "W708"})
 
 

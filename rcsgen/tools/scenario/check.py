@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ...compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint
+from ...compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint, listed
 from ...compiler.expressions import int_range_problem, text_problem_of
 from ...compiler.front_end.loader import LocDict, key_span, load_file, span_of, value_span
 from ...compiler.front_end.model import exact_cycles
@@ -344,7 +344,8 @@ class _Checker:
                     span,
                     "E411",
                     f"`{module}` cannot be simulated in this scenario: {why}",
-                    known_names_hint("controllers with a stand-in here", process.stand_ins),
+                    f"process `{process.name}` can simulate "
+                    + (", ".join(f"`{n}`" for n in sorted(process.stand_ins)) or "none"),
                 )
             else:
                 skipped.update((m, module) for m in stand_in[1] if m != module)
@@ -622,7 +623,7 @@ class _Checker:
             self.error(
                 span,
                 "E407",
-                f"`{module}.{name}` needs parameter(s) {', '.join(missing)}",
+                f"`{module}.{name}` needs {listed('parameter', missing)}",
                 f"give every parameter under `with: {{{given}}}`: a missing one would be 0",
             )
         supervisor = controller.supervisor
