@@ -166,9 +166,32 @@ WAITS = """\
         - when: sub.status == ERROR
           do: [report: ERROR]
 """
+# S1 is left on a world condition while MOVE runs: the DONE that S2 then reads answers the
+# wait S1 abandoned (model._leave), not anything S2 waits for: W707
+LEFT_WAIT = """\
+  GO:
+    first_match: [S1]
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+        - when: world.pos < -1.0
+          next: S2
+      S2:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+"""
 
 TOP = "controller: top\ntitle: Top\nsubordinates: [sub]\ncommands:\n"
 CONTINUE = ("subordinates: [sub]\n", "subordinates: [sub]\non_lost:\n  sub: continue\n")
+READS_POS = "world:\n  reads: [pos]\ncommands:"
 SWAPPED = ("modules: [top, sub]", "modules: [sub, top]")
 # top's own properties (W709): an invariant with safe(), same-cycle and later responses over
 # writes(), sent(), states, commands and statuses; one does not hold
@@ -197,6 +220,7 @@ CASES = {
     "motion_after_halt": (TINY_SYSTEM, TINY_SUB, TOP + MOTION_AFTER_HALT),
     "stale_done": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE),
     "no_echo": (TINY_SYSTEM, TINY_SUB, TOP + NO_ECHO),
+    "left_wait": (TINY_SYSTEM, TINY_SUB, TOP.replace("commands:", READS_POS) + LEFT_WAIT),
     "sub_before_top": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS),
     "lost_halt_all": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP),
     "lost_continue": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace(*CONTINUE)),
