@@ -10,8 +10,12 @@ refusing is a change a user sees), not a copy of rcsgen/compiler/checks/naming.p
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from test_check_messages import SYSTEM, TANK, said
+
+from rcsgen.compiler.frontend import compile_paths
 
 # every upper-case module-level name a generated controller module takes from the runtime
 RUNTIME = (
@@ -122,6 +126,27 @@ def test_a_world_field_named_like_a_layout_name_is_refused(tmp_path, monkeypatch
             "E228",
             f"world field `{field}` becomes `WORLD_{field.upper()}` in the generated layout "
             "module, which is already a name the layout module always has",
+            "rename one of them",
+        )
+    ]
+
+
+def test_a_process_whose_pacing_record_is_a_controllers_buffer_is_refused(
+    tmp_path, monkeypatch
+) -> None:
+    # process `x_mode`'s pacing record is PACE_X_MODE_AT, controller `pace_x`'s mode buffer
+    # too: the layout module would assign it twice, the pacing record at the mode's bytes
+    system = SYSTEM.replace("  p:\n    modules: [tank]", "  x_mode:\n    modules: [pace_x]")
+    (tmp_path / "system.yaml").write_text(system)
+    (tmp_path / "pace_x.yaml").write_text(TANK.replace("controller: tank", "controller: pace_x"))
+    monkeypatch.chdir(tmp_path)
+    found = compile_paths([Path(".")]).diagnostics.items
+    assert [(d.code, str(d.span), d.message, d.hint) for d in found] == [
+        (
+            "E228",
+            "system.yaml:11:3",
+            "process `x_mode` becomes `PACE_X_MODE_AT` in the generated layout module, which is "
+            "already controller `pace_x` (pace_x.yaml:1:13)",
             "rename one of them",
         )
     ]

@@ -609,8 +609,9 @@ def _check_layout(
                 for suffix in CHANNEL_SUFFIXES:
                     names.claim(channel_prefix(sub.value, spec.name) + suffix, what, sub.span)
     for process in system.processes:
-        name = f"PROCESS_{process.name.upper()}_AT"
-        names.claim(name, f"process `{process.name}`", span_of(process.name, process.span))
+        span = span_of(process.name, process.span)
+        for name in (f"PROCESS_{process.name.upper()}_AT", f"PACE_{process.name.upper()}_AT"):
+            names.claim(name, f"process `{process.name}`", span, ("process", process.name))
     for field_name, f in system.world.items():
         span = span_of(field_name, f.span)
         up = f"WORLD_{field_name.upper()}"
