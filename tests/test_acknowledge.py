@@ -66,6 +66,17 @@ def test_a_command_acknowledgement_covers_only_its_states(check) -> None:
     assert done.acknowledged == "waits for the heater"
 
 
+def test_a_command_acknowledgement_covers_only_its_command(check) -> None:
+    # AGAIN has GO's table, waits and all: GO's acknowledgement is not AGAIN's
+    allow = "  allow:\n    - {code: W503, states: [S1], reason: waits for the heater}"
+    diags = check(WAITS.format(allow=allow) + WAITS.format(allow="").replace("GO:", "AGAIN:"))
+    waits = sorted(
+        (d.subject.command, d.subject.state) for d in diags if d.code == "W503" and d.subject
+    )
+    assert waits == [("AGAIN", "S1"), ("AGAIN", "S2"), ("GO", "S2")]
+    assert [(d.subject and d.subject.command) for d in diags.acknowledged] == ["GO"]
+
+
 def test_a_command_acknowledgement_without_states_covers_every_state(check) -> None:
     # A folded reason over two lines: shown on one.
     allow = "  allow:\n    - code: W503\n      reason: >-\n        every wait of GO\n"
