@@ -110,7 +110,7 @@ def test_a_rule_acknowledgement_covers_that_rule_only(check) -> None:
     ]
 
 
-def test_checker_warnings_and_every_cycle_rules_can_be_acknowledged(check) -> None:
+def test_checker_warnings_can_be_acknowledged(check) -> None:
     diags = check(
         """
         GO:
@@ -124,6 +124,30 @@ def test_checker_warnings_and_every_cycle_rules_can_be_acknowledged(check) -> No
     assert list(diags) == []
     [done] = diags.acknowledged
     assert done.code == "W301" and done.acknowledged == "the old ending, kept for the review"
+
+
+def test_an_every_cycle_rule_can_be_acknowledged(tmp_path: Path, monkeypatch) -> None:
+    # beside GO's own acknowledgement of its wait in S1, which stays
+    monkeypatch.chdir(tmp_path)
+    every_cycle = """
+        every_cycle:
+          - when: world.hot
+            do: [set: {i: 1}]
+          - when: 1 > 2
+            do: [set: {i: 2}]
+            allow: [{code: W302, reason: kept for the next sensor}]
+        """
+    allow = "  allow:\n    - {code: W503, states: [S1], reason: waits for the heater}"
+    top = make(tmp_path, WAITS.format(allow=allow), top_level=every_cycle)
+    diags = compile_paths([top]).diagnostics
+    assert [(d.code, d.subject and d.subject.state) for d in diags] == [("W503", "S2")]
+    assert [
+        (d.code, d.subject and (d.subject.command, d.subject.rule), d.acknowledged)
+        for d in diags.acknowledged
+    ] == [
+        ("W302", (None, 2), "kept for the next sensor"),
+        ("W503", ("GO", None), "waits for the heater"),
+    ]
 
 
 def test_acknowledged_warnings_do_not_fail_strict_and_show_on_request(check) -> None:
