@@ -126,7 +126,6 @@ LAYOUT_NAMES = frozenset(
     {
         "annotations",
         "Struct",
-        "NamedTuple",
         "SIZE",
         "STATUS",
         "MODE",
@@ -141,7 +140,6 @@ LAYOUT_NAMES = frozenset(
         "WORLD_INITIAL",
         "COMMAND_NAMES",
         "STATE_NAMES",
-        "STATUS_NAMES",
         "SIMULATORS",
         "RULES",
         "initialise",
@@ -176,6 +174,17 @@ LAYOUT_NAMES = frozenset(
         "SEGMENT_GROUP",
         "WORLD_WRITERS",
         "GROUND_TRUTH",
+        "ACTUATED_BY",
+        "CAUSE_MODULES",
+        "ON_LOST_CONTINUE",
+        "OVERRIDDEN_AT",
+        "OVERRIDE",
+        "OVERRIDES",
+        "OVERRIDES_AT",
+        "REASON_NAMES",
+        "REQUESTS",
+        "SAFE_VALUES",
+        "TIME_IN_STATE",
     }
 )
 # Suffixes of the attributes a controller keeps for each subordinate (`cc_status`, ...).
