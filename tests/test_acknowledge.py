@@ -196,3 +196,18 @@ def test_errors_cannot_be_acknowledged(check) -> None:
         "E237",
         "`E501` cannot be acknowledged: it is an error: fix it",
     )
+
+
+@pytest.mark.parametrize(
+    ("code", "what"),
+    [
+        ("S004", "an error: fix it"),  # a schema error's code
+        ("W501", "not a warning that can be acknowledged"),  # first_match, not allow, takes it
+        ("X123", "not a warning"),  # a code of no kind (the schema lets any letter through)
+    ],
+)
+def test_what_cannot_be_acknowledged_says_what_it_is(check, code: str, what: str) -> None:
+    diags = check(WAITS, allow=f"  allow:\n    - {{code: {code}, reason: order}}")
+    assert [(d.code, d.message) for d in diags.errors] == [
+        ("E237", f"`{code}` cannot be acknowledged: it is {what}")
+    ]
