@@ -211,3 +211,33 @@ def test_what_cannot_be_acknowledged_says_what_it_is(check, code: str, what: str
     assert [(d.code, d.message) for d in diags.errors] == [
         ("E237", f"`{code}` cannot be acknowledged: it is {what}")
     ]
+
+
+def test_each_acknowledgement_that_matches_nothing_says_where_it_is(
+    tmp_path: Path, monkeypatch
+) -> None:
+    # after one that is used: on the command without states, on a rule, on an every_cycle rule
+    monkeypatch.chdir(tmp_path)
+    every_cycle = """
+        every_cycle:
+          - when: world.hot
+            do: [set: {i: 1}]
+            allow: [{code: W302, reason: none yet}]
+        """
+    allow = (
+        "  allow:\n    - {code: W503, states: [S1], reason: waits for the heater}\n"
+        "    - {code: W512, reason: none yet}"
+    )
+    done = "        do: [report: DONE]\n"
+    commands = WAITS.format(allow=allow).replace(
+        done, done + "        allow: [{code: W301, reason: none yet}]\n"
+    )
+    diags = compile_paths([make(tmp_path, commands, top_level=every_cycle)]).diagnostics
+    assert [(str(d.span), d.message) for d in diags if d.code == "W303"] == [
+        (
+            "sys/top.yaml:18:13",
+            "the acknowledgement of W302 on every_cycle rule 1 matches no finding",
+        ),
+        ("sys/top.yaml:23:9", "the acknowledgement of W512 in GO matches no finding"),
+        ("sys/top.yaml:36:19", "the acknowledgement of W301 on rule 1 of GO S2 matches no finding"),
+    ]
