@@ -137,6 +137,14 @@ STALE_DONE = """\
         - when: sub.status == ERROR
           do: [report: ERROR]
 """
+# as STALE_DONE, but S2 goes on to another state on the stale DONE rather than reporting
+STALE_DONE_NEXT = (
+    STALE_DONE.replace(
+        "      S2:\n        - when: sub.status == DONE\n          do: [report: DONE]\n",
+        "      S2:\n        - when: sub.status == DONE\n          next: S3\n",
+    )
+    + "      S3:\n        - do: [report: DONE]\n"
+)
 NO_ECHO = """\
   GO:
     states:
@@ -188,6 +196,35 @@ LEFT_WAIT = """\
         - when: sub.status == ERROR
           do: [report: ERROR]
 """
+# top runs sub and sub2 together; when one fails, it reports ERROR without halting the
+# other: at once (S1/1) and a state later (S1/3, then S2): W701 "not withdrawn", both rules
+FAILING_SUB = TINY_SUB.replace(
+    "          do: [{set: {world.drive: 0.0}}, {report: DONE}]\n",
+    "          do: [{set: {world.drive: 0.0}}, {report: DONE}]\n"
+    "        - when: world.pos < -1.0\n"
+    "          do: [{set: {world.drive: 0.0}}, {report: ERROR}]\n",
+)
+PAIR_SYSTEM = TINY_SYSTEM.replace("modules: [top, sub]", "modules: [top, sub, sub2]")
+NOT_WITHDRAWN = """controller: top
+title: Top
+subordinates: [sub, sub2]
+commands:
+  GO:
+    first_match: [S1]
+    states:
+      S0:
+        - do: [send: sub.MOVE, send: sub2.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+        - when: sub.status == DONE and sub2.status == DONE
+          do: [report: DONE]
+        - when: sub2.status == ERROR
+          next: S2
+      S2:
+        - do: [report: ERROR]
+"""
 
 TOP = "controller: top\ntitle: Top\nsubordinates: [sub]\ncommands:\n"
 CONTINUE = ("subordinates: [sub]\n", "subordinates: [sub]\non_lost:\n  sub: continue\n")
@@ -214,11 +251,12 @@ properties:
     always: not (top.status == ERROR)
 commands:
 """
-# case -> (system.yaml, sub.yaml, top.yaml)
+# case -> (system.yaml, sub.yaml, top.yaml[, sub2.yaml])
 CASES = {
     "goes_round": (TINY_SYSTEM, TINY_SUB, TOP + GOES_ROUND),
     "motion_after_halt": (TINY_SYSTEM, TINY_SUB, TOP + MOTION_AFTER_HALT),
     "stale_done": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE),
+    "stale_done_next": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE_NEXT),
     "no_echo": (TINY_SYSTEM, TINY_SUB, TOP + NO_ECHO),
     "left_wait": (TINY_SYSTEM, TINY_SUB, TOP.replace("commands:", READS_POS) + LEFT_WAIT),
     "sub_before_top": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS),
@@ -231,6 +269,12 @@ CASES = {
         TOP + WAITS.replace("sub.status == DONE", "sub.status == DONE and sub.command == MOVE"),
     ),
     "properties": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace("commands:\n", PROPERTIES, 1)),
+    "not_withdrawn": (
+        PAIR_SYSTEM,
+        FAILING_SUB,
+        NOT_WITHDRAWN,
+        FAILING_SUB.replace("controller: sub", "controller: sub2"),
+    ),
 }
 EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"
 
@@ -238,7 +282,8 @@ EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"
 def proven(case: str) -> str:
     """What `rcsgen prove --no-replay` prints in the current directory, with the case's
     specs written there, and its exit code; the solver's times masked."""
-    for name, text in zip(("system", "sub", "top"), CASES[case], strict=True):
+    names = ("system", "sub", "top", "sub2")[: len(CASES[case])]
+    for name, text in zip(names, CASES[case], strict=True):
         Path(f"{name}.yaml").write_text(text)
     result = CliRunner().invoke(main, ["prove", ".", "--no-replay"])
     return f"exit {result.exit_code}\n" + re.sub(r" +\d+ ms \(\d+ ms CPU\)", " T", result.output)
