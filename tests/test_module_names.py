@@ -35,13 +35,22 @@ UPPER = re.compile(r"[A-Z][A-Z0-9_]*")
 
 def module_level_names(module: Path) -> set[str]:
     """The upper-case names a generated module defines or imports at module level."""
+    return {n for n in top_level_names(module) if UPPER.fullmatch(n)}
+
+
+def top_level_names(module: Path) -> set[str]:
+    """Every name a generated module defines or imports at module level."""
     names: set[str] = set()
     for node in ast.parse(module.read_text()).body:
         if isinstance(node, ast.ImportFrom):
             names |= {a.asname or a.name for a in node.names}
         elif isinstance(node, ast.Assign):
             names |= {t.id for t in node.targets if isinstance(t, ast.Name)}
-    return {n for n in names if UPPER.fullmatch(n)}
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            names.add(node.target.id)
+        elif isinstance(node, ast.FunctionDef | ast.ClassDef):
+            names.add(node.name)
+    return names
 
 
 def own_names(module: Path) -> set[str]:
@@ -197,28 +206,13 @@ def test_every_attribute_of_a_generated_class_is_refused_as_a_predicate(
         assert missing == [], f"{system}/{name}: no error for the predicates {missing}"
 
 
-def layout_names(module: Path) -> set[str]:
-    """Every name a generated layout module defines or imports at module level."""
-    names: set[str] = set()
-    for node in ast.parse(module.read_text()).body:
-        if isinstance(node, ast.ImportFrom):
-            names |= {a.asname or a.name for a in node.names}
-        elif isinstance(node, ast.Assign):
-            names |= {t.id for t in node.targets if isinstance(t, ast.Name)}
-        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
-            names.add(node.target.id)
-        elif isinstance(node, ast.FunctionDef | ast.ClassDef):
-            names.add(node.name)
-    return names
-
-
 def test_the_layout_names_reserved_are_the_ones_every_layout_module_has() -> None:
     """naming.LAYOUT_NAMES, against the committed layout modules of every system: each is a
     name some layout has (no stale entry), and each name all of them have (no spec name is
     common to every system) is reserved."""
     from rcsgen.compiler.checks.naming import LAYOUT_NAMES
 
-    layouts = [layout_names(p) for p in sorted((ROOT / "generated").glob("*/layout.py"))]
+    layouts = [top_level_names(p) for p in sorted((ROOT / "generated").glob("*/layout.py"))]
     assert len(layouts) >= 5
     assert sorted(LAYOUT_NAMES - set.union(*layouts)) == []
     assert sorted(set.intersection(*layouts) - LAYOUT_NAMES) == []

@@ -176,26 +176,13 @@ WAITS = """\
 """
 # S1 is left on a world condition while MOVE runs: the DONE that S2 then reads answers the
 # wait S1 abandoned (model._leave), not anything S2 waits for: W707
-LEFT_WAIT = """\
-  GO:
-    first_match: [S1]
-    states:
-      S0:
-        - do: [send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status == DONE
-          do: [report: DONE]
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-        - when: world.pos < -1.0
-          next: S2
-      S2:
-        - when: sub.status == DONE
-          do: [report: DONE]
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-"""
+LEFT_WAIT = (
+    WAITS.replace("    states:", "    first_match: [S1]\n    states:").replace(
+        "ERROR]\n", "ERROR]\n        - when: world.pos < -1.0\n          next: S2\n"
+    )
+    + "      S2:\n"
+    + WAITS.split("      S1:\n")[1]  # S1's rules again
+)
 # top runs sub and sub2 together; when one fails, it reports ERROR without halting the
 # other: at once (S1/1) and a state later (S1/3, then S2): W701 "not withdrawn", both rules
 FAILING_SUB = TINY_SUB.replace(
@@ -224,6 +211,24 @@ commands:
           next: S2
       S2:
         - do: [report: ERROR]
+"""
+# S2 reads sub's DONE again beside sub2's new one: stale, but the answer to HALT, which only
+# says sub is stopped (no W707); were it MOVE's, a new motion would have been meant (W707)
+STALE_BESIDE_NEW = """controller: top
+title: Top
+subordinates: [sub, sub2]
+commands:
+  GO:
+    states:
+      S0:
+        - do: [send: sub.HALT, send: sub2.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          next: S2
+      S2:
+        - when: sub.status == DONE and sub2.status == DONE
+          do: [report: DONE]
 """
 
 TOP = "controller: top\ntitle: Top\nsubordinates: [sub]\ncommands:\n"
@@ -269,6 +274,18 @@ CASES = {
         TOP + WAITS.replace("sub.status == DONE", "sub.status == DONE and sub.command == MOVE"),
     ),
     "properties": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace("commands:\n", PROPERTIES, 1)),
+    "stale_beside_new": (
+        PAIR_SYSTEM,
+        TINY_SUB,
+        STALE_BESIDE_NEW,
+        TINY_SUB.replace("controller: sub", "controller: sub2"),
+    ),
+    "stale_motion_beside_new": (
+        PAIR_SYSTEM,
+        TINY_SUB,
+        STALE_BESIDE_NEW.replace("send: sub.HALT", "send: sub.MOVE"),
+        TINY_SUB.replace("controller: sub", "controller: sub2"),
+    ),
     "not_withdrawn": (
         PAIR_SYSTEM,
         FAILING_SUB,
