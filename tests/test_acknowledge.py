@@ -241,3 +241,34 @@ def test_each_acknowledgement_that_matches_nothing_says_where_it_is(
         ("sys/top.yaml:23:9", "the acknowledgement of W512 in GO matches no finding"),
         ("sys/top.yaml:36:19", "the acknowledgement of W301 on rule 1 of GO S2 matches no finding"),
     ]
+
+
+# What each warning a spec can acknowledge is about (codes.Code.about), as W303 says it
+ABOUT = {
+    "W301": "a rule",
+    "W302": "a rule",
+    "W304": "a rule",
+    "W306": "a rule",
+    "W309": "a rule",
+    "W502": "a rule",
+    "W503": "a state",
+    "W505": "a rule",
+    "W506": "a state",
+    "W508": "a state",
+    "W509": "a state",
+    "W511": "a state",
+    "W512": "a rule",
+}
+
+
+def test_an_unused_acknowledgement_says_where_its_code_is_acknowledged(check) -> None:
+    allows = "".join(f"    - {{code: {code}, reason: none yet}}\n" for code in ABOUT)
+    diags = check(f"GO:\n  allow:\n{allows}  states:\n    S0:\n      - do: [report: DONE]\n")
+    where = {
+        "a rule": "on the rule, or on the command with `states:`",
+        "a state": "on the command, with `states:`",
+    }
+    assert [d.hint for d in diags if d.code == "W303"] == [
+        f"remove it if the finding is gone; {code} is about {kind}: acknowledge it {where[kind]}"
+        for code, kind in ABOUT.items()
+    ]
