@@ -184,7 +184,7 @@ LEFT_WAIT = (
     + WAITS.split("      S1:\n")[1]  # S1's rules again
 )
 # top runs sub and sub2 together; when one fails, it reports ERROR without halting the
-# other: at once (S1/1) and a state later (S1/3, then S2): W701 "not withdrawn", both rules
+# other: at once (S1/1) and two states later (S1/3, S2, S3): W701 "not withdrawn", both rules
 FAILING_SUB = TINY_SUB.replace(
     "          do: [{set: {world.drive: 0.0}}, {report: DONE}]\n",
     "          do: [{set: {world.drive: 0.0}}, {report: DONE}]\n"
@@ -210,6 +210,8 @@ commands:
         - when: sub2.status == ERROR
           next: S2
       S2:
+        - next: S3
+      S3:
         - do: [report: ERROR]
 """
 # S2 reads sub's DONE again beside sub2's new one: stale, but the answer to HALT, which only
@@ -285,6 +287,19 @@ CASES = {
         TINY_SUB,
         STALE_BESIDE_NEW.replace("send: sub.HALT", "send: sub.MOVE"),
         TINY_SUB.replace("controller: sub", "controller: sub2"),
+    ),
+    # GO acknowledges every finding of prove's, none of which it has: W303 says for each
+    # where its code is acknowledged (codes.Code.about)
+    "unused_allows": (
+        TINY_SYSTEM,
+        TINY_SUB,
+        TOP
+        + WAITS.replace(
+            "    states:",
+            "    allow:\n"
+            + "".join(f"      - {{code: W70{n}, reason: none yet}}\n" for n in range(1, 10))
+            + "    states:",
+        ),
     ),
     "not_withdrawn": (
         PAIR_SYSTEM,
