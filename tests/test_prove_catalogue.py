@@ -235,6 +235,8 @@ commands:
 
 TOP = "controller: top\ntitle: Top\nsubordinates: [sub]\ncommands:\n"
 CONTINUE = ("subordinates: [sub]\n", "subordinates: [sub]\non_lost:\n  sub: continue\n")
+# LATCH_TOP's HALT without the lamp: HALT sub, wait for it
+HALTS = "  HALT:" + LATCH_TOP.split("  HALT:")[1].replace("{set: {world.lamp: false}}, ", "")
 READS_POS = "world:\n  reads: [pos]\ncommands:"
 SWAPPED = ("modules: [top, sub]", "modules: [sub, top]")
 # top's own properties (W709): an invariant with safe(), same-cycle and later responses over
@@ -267,6 +269,8 @@ CASES = {
     "no_echo": (TINY_SYSTEM, TINY_SUB, TOP + NO_ECHO),
     "left_wait": (TINY_SYSTEM, TINY_SUB, TOP.replace("commands:", READS_POS) + LEFT_WAIT),
     "sub_before_top": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS),
+    # top declares its HALT: W704 is located there (not at the file's start)
+    "sub_before_top_halt": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS + HALTS),
     "lost_halt_all": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP),
     "lost_continue": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace(*CONTINUE)),
     # GO goes on on sub's DONE only when MOVE is what it sent last: read from the model
