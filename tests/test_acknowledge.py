@@ -66,6 +66,17 @@ def test_a_command_acknowledgement_covers_only_its_states(check) -> None:
     assert done.acknowledged == "waits for the heater"
 
 
+def test_a_command_acknowledgement_covers_only_its_command(check) -> None:
+    # AGAIN has GO's table, waits and all: GO's acknowledgement is not AGAIN's
+    allow = "  allow:\n    - {code: W503, states: [S1], reason: waits for the heater}"
+    diags = check(WAITS.format(allow=allow) + WAITS.format(allow="").replace("GO:", "AGAIN:"))
+    waits = sorted(
+        (d.subject.command, d.subject.state) for d in diags if d.code == "W503" and d.subject
+    )
+    assert waits == [("AGAIN", "S1"), ("AGAIN", "S2"), ("GO", "S2")]
+    assert [(d.subject and d.subject.command) for d in diags.acknowledged] == ["GO"]
+
+
 def test_a_command_acknowledgement_without_states_covers_every_state(check) -> None:
     # A folded reason over two lines: shown on one.
     allow = "  allow:\n    - code: W503\n      reason: >-\n        every wait of GO\n"
@@ -99,7 +110,7 @@ def test_a_rule_acknowledgement_covers_that_rule_only(check) -> None:
     ]
 
 
-def test_checker_warnings_and_every_cycle_rules_can_be_acknowledged(check) -> None:
+def test_checker_warnings_can_be_acknowledged(check) -> None:
     diags = check(
         """
         GO:
@@ -113,6 +124,30 @@ def test_checker_warnings_and_every_cycle_rules_can_be_acknowledged(check) -> No
     assert list(diags) == []
     [done] = diags.acknowledged
     assert done.code == "W301" and done.acknowledged == "the old ending, kept for the review"
+
+
+def test_an_every_cycle_rule_can_be_acknowledged(tmp_path: Path, monkeypatch) -> None:
+    # beside GO's own acknowledgement of its wait in S1, which stays
+    monkeypatch.chdir(tmp_path)
+    every_cycle = """
+        every_cycle:
+          - when: world.hot
+            do: [set: {i: 1}]
+          - when: 1 > 2
+            do: [set: {i: 2}]
+            allow: [{code: W302, reason: kept for the next sensor}]
+        """
+    allow = "  allow:\n    - {code: W503, states: [S1], reason: waits for the heater}"
+    top = make(tmp_path, WAITS.format(allow=allow), top_level=every_cycle)
+    diags = compile_paths([top]).diagnostics
+    assert [(d.code, d.subject and d.subject.state) for d in diags] == [("W503", "S2")]
+    assert [
+        (d.code, d.subject and (d.subject.command, d.subject.rule), d.acknowledged)
+        for d in diags.acknowledged
+    ] == [
+        ("W302", (None, 2), "kept for the next sensor"),
+        ("W503", ("GO", None), "waits for the heater"),
+    ]
 
 
 def test_acknowledged_warnings_do_not_fail_strict_and_show_on_request(check) -> None:
@@ -161,3 +196,79 @@ def test_errors_cannot_be_acknowledged(check) -> None:
         "E237",
         "`E501` cannot be acknowledged: it is an error: fix it",
     )
+
+
+@pytest.mark.parametrize(
+    ("code", "what"),
+    [
+        ("S004", "an error: fix it"),  # a schema error's code
+        ("W501", "not a warning that can be acknowledged"),  # first_match, not allow, takes it
+        ("X123", "not a warning"),  # a code of no kind (the schema lets any letter through)
+    ],
+)
+def test_what_cannot_be_acknowledged_says_what_it_is(check, code: str, what: str) -> None:
+    diags = check(WAITS, allow=f"  allow:\n    - {{code: {code}, reason: order}}")
+    assert [(d.code, d.message) for d in diags.errors] == [
+        ("E237", f"`{code}` cannot be acknowledged: it is {what}")
+    ]
+
+
+def test_each_acknowledgement_that_matches_nothing_says_where_it_is(
+    tmp_path: Path, monkeypatch
+) -> None:
+    # after one that is used: on the command without states, on a rule, on an every_cycle rule
+    monkeypatch.chdir(tmp_path)
+    every_cycle = """
+        every_cycle:
+          - when: world.hot
+            do: [set: {i: 1}]
+            allow: [{code: W302, reason: none yet}]
+        """
+    allow = (
+        "  allow:\n    - {code: W503, states: [S1], reason: waits for the heater}\n"
+        "    - {code: W512, reason: none yet}"
+    )
+    done = "        do: [report: DONE]\n"
+    commands = WAITS.format(allow=allow).replace(
+        done, done + "        allow: [{code: W301, reason: none yet}]\n"
+    )
+    diags = compile_paths([make(tmp_path, commands, top_level=every_cycle)]).diagnostics
+    assert [(str(d.span), d.message) for d in diags if d.code == "W303"] == [
+        (
+            "sys/top.yaml:18:13",
+            "the acknowledgement of W302 on every_cycle rule 1 matches no finding",
+        ),
+        ("sys/top.yaml:23:9", "the acknowledgement of W512 in GO matches no finding"),
+        ("sys/top.yaml:36:19", "the acknowledgement of W301 on rule 1 of GO S2 matches no finding"),
+    ]
+
+
+# What each warning a spec can acknowledge is about (codes.Code.about), as W303 says it
+ABOUT = {
+    "W301": "a rule",
+    "W302": "a rule",
+    "W304": "a rule",
+    "W306": "a rule",
+    "W309": "a rule",
+    "W502": "a rule",
+    "W503": "a state",
+    "W505": "a rule",
+    "W506": "a state",
+    "W508": "a state",
+    "W509": "a state",
+    "W511": "a state",
+    "W512": "a rule",
+}
+
+
+def test_an_unused_acknowledgement_says_where_its_code_is_acknowledged(check) -> None:
+    allows = "".join(f"    - {{code: {code}, reason: none yet}}\n" for code in ABOUT)
+    diags = check(f"GO:\n  allow:\n{allows}  states:\n    S0:\n      - do: [report: DONE]\n")
+    where = {
+        "a rule": "on the rule, or on the command with `states:`",
+        "a state": "on the command, with `states:`",
+    }
+    assert [d.hint for d in diags if d.code == "W303"] == [
+        f"remove it if the finding is gone; {code} is about {kind}: acknowledge it {where[kind]}"
+        for code, kind in ABOUT.items()
+    ]

@@ -86,3 +86,27 @@ def test_a_failed_subordinates_reason_can_be_lost(tmp_path: Path) -> None:
     ]
     with_lost = top.replace(named, f"{named} or dev.reason == LOST")
     assert said(tmp_path, with_lost) == []
+
+
+@pytest.mark.parametrize(
+    ("guard", "want"),
+    [
+        (  # above 2 and below 1: never (the six lines of `functions:` move the places)
+            "between(world.level, 2.0, 1.0)",
+            [(NEVER[0], "top.yaml:25:11", *NEVER[2:]), (WAITS[0], "top.yaml:22:7", *WAITS[2:])],
+        ),
+        ("(between(world.level, 1.0, 2.0) or not between(world.level, 1.0, 2.0))", []),
+    ],
+)
+def test_a_function_whose_body_is_an_and_is_decided_with_its_arguments(
+    tmp_path: Path, guard: str, want
+) -> None:
+    # the body's `and` has the arguments put in for its parameters (expressions.substitute of
+    # a BoolOp): left unsubstituted, `lo` and `hi` would be free and the guard could hold
+    top = READS.replace(
+        "constants:\n",
+        "functions:\n  between:\n    doc: x strictly between lo and hi.\n"
+        "    params: {x: float, lo: float, hi: float}\n    returns: bool\n"
+        "    body: x > lo and x < hi\nconstants:\n",
+    ).replace(DONE_RULE, f"        - when: dev.status == DONE and {guard}\n", 1)
+    assert said(tmp_path, top) == want

@@ -22,6 +22,8 @@ import json
 import os
 import re
 import shutil
+import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -253,6 +255,20 @@ def test_the_registry_is_the_one_list_of_codes() -> None:
     assert sorted(set(CODES) - tested) == [], "registered but tested by no case"
     assert WARNING_CODES == {c for c in documented if c.startswith("W")}
     assert index_markdown() in doc, "docs/diagnostics.md's index is not the registry's"
+
+
+def test_the_registry_prints_the_docs_index() -> None:
+    """`python -m rcsgen.compiler.codes`, as docs/diagnostics.md says, prints its index."""
+    from rcsgen.compiler.codes import index_markdown
+
+    printed = subprocess.run(
+        [sys.executable, "-m", "rcsgen.compiler.codes"],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=60,
+    ).stdout
+    assert printed == index_markdown() and printed.startswith("| range | stage | module |\n")
 
 
 def test_a_code_reported_with_another_severity_is_an_internal_error() -> None:

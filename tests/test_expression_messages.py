@@ -57,6 +57,18 @@ def test_a_string_that_fits_is_no_finding(tmp_path, monkeypatch) -> None:
     assert said(tmp_path, monkeypatch, SYSTEM, tank) == []
 
 
+@pytest.mark.parametrize("size", [255, 256])
+def test_a_string_literal_holds_at_most_255_bytes(tmp_path, monkeypatch, size: int) -> None:
+    literal = "x" * size
+    guard = f"world.level < 2.0 and s != '{literal}'"
+    tank = TANK_WITH_LOCALS.replace("world.level < 2.0", guard, 1)
+    found = [f for f in said(tmp_path, monkeypatch, SYSTEM, tank) if f[0].startswith("E")]
+    too_long = (
+        f"invalid string literal: '{literal[:20]}'... is 256 bytes: more than the 255 it holds"
+    )
+    assert found == ([] if size == 255 else [("E276", too_long, "")])
+
+
 def test_a_finding_prints_floor_division_and_remainder(tmp_path, monkeypatch) -> None:
     guard = "world.level // 1.0 < 2.0 and world.level % 2.0 > -1.0"
     tank = TANK.replace("- when: world.level < 2.0", f"- when: {guard}", 1)

@@ -150,6 +150,16 @@ def test_utf16_file_is_e008_with_a_hint(system: Path) -> None:
     assert "the file is UTF-16" in result.output
 
 
+def test_utf16_without_a_bom_is_told_by_its_first_32_characters(system: Path) -> None:
+    # the 33rd character is the first not ASCII (a euro sign: bytes 64 and 65, 0x20 0xac):
+    # the first 64 bytes alone say UTF-16, not the byte after them, nor UTF-8's 0xac
+    top = system / "top.yaml"
+    top.write_bytes(("# " + "x" * 30 + "\u20ac\n" + top.read_text()).encode("utf-16-be"))
+    one_error(
+        ["validate", "sys"], "sys/top.yaml", "E008", "it is UTF-16 (big-endian) without a byte"
+    )
+
+
 def test_oversized_file_is_e006_and_is_not_read_whole(system: Path) -> None:
     with (system / "huge.yaml").open("wb") as handle:
         handle.truncate(50_000_000)  # sparse: 50 MB of zeros on disk costs nothing

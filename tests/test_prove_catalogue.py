@@ -1,6 +1,8 @@
 """`rcsgen prove` word for word on small systems made for one finding each (W702 a command
-that goes round for ever, W706 motion after HALT, W707 a stale DONE believed, W708 going on
-before the echo, W704 a subordinate run before its supervisor) and for the runtime's
+that goes round for ever, W706 motion after HALT, W707 a stale DONE believed (after a wait
+left, beside a new DONE), W708 going on before the echo, W704 a subordinate run before its
+supervisor, W701 an ERROR reported without withdrawing another subordinate, W303 prove's
+acknowledgements that match nothing) and for the runtime's
 reaction to a lost process (halt_all and `on_lost: continue`): the findings located at
 their rules, the summary (states, execution order, HALT and ERROR bounds, the world
 conditions a command finishes under) and each counter-example cycle by cycle. The model
@@ -137,6 +139,14 @@ STALE_DONE = """\
         - when: sub.status == ERROR
           do: [report: ERROR]
 """
+# as STALE_DONE, but S2 goes on to another state on the stale DONE rather than reporting
+STALE_DONE_NEXT = (
+    STALE_DONE.replace(
+        "      S2:\n        - when: sub.status == DONE\n          do: [report: DONE]\n",
+        "      S2:\n        - when: sub.status == DONE\n          next: S3\n",
+    )
+    + "      S3:\n        - do: [report: DONE]\n"
+)
 NO_ECHO = """\
   GO:
     states:
@@ -166,9 +176,70 @@ WAITS = """\
         - when: sub.status == ERROR
           do: [report: ERROR]
 """
+# S1 is left on a world condition while MOVE runs: the DONE that S2 then reads answers the
+# wait S1 abandoned (model._leave), not anything S2 waits for: W707
+LEFT_WAIT = (
+    WAITS.replace("    states:", "    first_match: [S1]\n    states:").replace(
+        "ERROR]\n", "ERROR]\n        - when: world.pos < -1.0\n          next: S2\n"
+    )
+    + "      S2:\n"
+    + WAITS.split("      S1:\n")[1]  # S1's rules again
+)
+# top runs sub and sub2 together; when one fails, it reports ERROR without halting the
+# other: at once (S1/1) and two states later (S1/3, S2, S3): W701 "not withdrawn", both rules
+FAILING_SUB = TINY_SUB.replace(
+    "          do: [{set: {world.drive: 0.0}}, {report: DONE}]\n",
+    "          do: [{set: {world.drive: 0.0}}, {report: DONE}]\n"
+    "        - when: world.pos < -1.0\n"
+    "          do: [{set: {world.drive: 0.0}}, {report: ERROR}]\n",
+)
+PAIR_SYSTEM = TINY_SYSTEM.replace("modules: [top, sub]", "modules: [top, sub, sub2]")
+NOT_WITHDRAWN = """controller: top
+title: Top
+subordinates: [sub, sub2]
+commands:
+  GO:
+    first_match: [S1]
+    states:
+      S0:
+        - do: [send: sub.MOVE, send: sub2.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+        - when: sub.status == DONE and sub2.status == DONE
+          do: [report: DONE]
+        - when: sub2.status == ERROR
+          next: S2
+      S2:
+        - next: S3
+      S3:
+        - do: [report: ERROR]
+"""
+# S2 reads sub's DONE again beside sub2's new one: stale, but the answer to HALT, which only
+# says sub is stopped (no W707); were it MOVE's, a new motion would have been meant (W707)
+STALE_BESIDE_NEW = """controller: top
+title: Top
+subordinates: [sub, sub2]
+commands:
+  GO:
+    states:
+      S0:
+        - do: [send: sub.HALT, send: sub2.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          next: S2
+      S2:
+        - when: sub.status == DONE and sub2.status == DONE
+          do: [report: DONE]
+"""
 
 TOP = "controller: top\ntitle: Top\nsubordinates: [sub]\ncommands:\n"
 CONTINUE = ("subordinates: [sub]\n", "subordinates: [sub]\non_lost:\n  sub: continue\n")
+# LATCH_TOP's HALT without the lamp: HALT sub, wait for it
+HALTS = "  HALT:" + LATCH_TOP.split("  HALT:")[1].replace("{set: {world.lamp: false}}, ", "")
+READS_POS = "world:\n  reads: [pos]\ncommands:"
 SWAPPED = ("modules: [top, sub]", "modules: [sub, top]")
 # top's own properties (W709): an invariant with safe(), same-cycle and later responses over
 # writes(), sent(), states, commands and statuses; one does not hold
@@ -191,13 +262,17 @@ properties:
     always: not (top.status == ERROR)
 commands:
 """
-# case -> (system.yaml, sub.yaml, top.yaml)
+# case -> (system.yaml, sub.yaml, top.yaml[, sub2.yaml])
 CASES = {
     "goes_round": (TINY_SYSTEM, TINY_SUB, TOP + GOES_ROUND),
     "motion_after_halt": (TINY_SYSTEM, TINY_SUB, TOP + MOTION_AFTER_HALT),
     "stale_done": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE),
+    "stale_done_next": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE_NEXT),
     "no_echo": (TINY_SYSTEM, TINY_SUB, TOP + NO_ECHO),
+    "left_wait": (TINY_SYSTEM, TINY_SUB, TOP.replace("commands:", READS_POS) + LEFT_WAIT),
     "sub_before_top": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS),
+    # top declares its HALT: W704 is located there (not at the file's start)
+    "sub_before_top_halt": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS + HALTS),
     "lost_halt_all": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP),
     "lost_continue": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace(*CONTINUE)),
     # GO goes on on sub's DONE only when MOVE is what it sent last: read from the model
@@ -207,6 +282,37 @@ CASES = {
         TOP + WAITS.replace("sub.status == DONE", "sub.status == DONE and sub.command == MOVE"),
     ),
     "properties": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace("commands:\n", PROPERTIES, 1)),
+    "stale_beside_new": (
+        PAIR_SYSTEM,
+        TINY_SUB,
+        STALE_BESIDE_NEW,
+        TINY_SUB.replace("controller: sub", "controller: sub2"),
+    ),
+    "stale_motion_beside_new": (
+        PAIR_SYSTEM,
+        TINY_SUB,
+        STALE_BESIDE_NEW.replace("send: sub.HALT", "send: sub.MOVE"),
+        TINY_SUB.replace("controller: sub", "controller: sub2"),
+    ),
+    # GO acknowledges every finding of prove's, none of which it has: W303 says for each
+    # where its code is acknowledged (codes.Code.about)
+    "unused_allows": (
+        TINY_SYSTEM,
+        TINY_SUB,
+        TOP
+        + WAITS.replace(
+            "    states:",
+            "    allow:\n"
+            + "".join(f"      - {{code: W70{n}, reason: none yet}}\n" for n in range(1, 10))
+            + "    states:",
+        ),
+    ),
+    "not_withdrawn": (
+        PAIR_SYSTEM,
+        FAILING_SUB,
+        NOT_WITHDRAWN,
+        FAILING_SUB.replace("controller: sub", "controller: sub2"),
+    ),
 }
 EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"
 
@@ -214,7 +320,8 @@ EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"
 def proven(case: str) -> str:
     """What `rcsgen prove --no-replay` prints in the current directory, with the case's
     specs written there, and its exit code; the solver's times masked."""
-    for name, text in zip(("system", "sub", "top"), CASES[case], strict=True):
+    names = ("system", "sub", "top", "sub2")[: len(CASES[case])]
+    for name, text in zip(names, CASES[case], strict=True):
         Path(f"{name}.yaml").write_text(text)
     result = CliRunner().invoke(main, ["prove", ".", "--no-replay"])
     return f"exit {result.exit_code}\n" + re.sub(r" +\d+ ms \(\d+ ms CPU\)", " T", result.output)

@@ -40,11 +40,6 @@ class Type:
         return str(self)
 
     @property
-    def stored(self) -> bool:
-        """Whether a buffer field, a local or a hook's target can hold it."""
-        return False
-
-    @property
     def code(self) -> str:
         """Its `struct` code in the block."""
         raise TypeError(f"a {self} is not stored in the block")
@@ -89,10 +84,6 @@ class Scalar(Type):
     @property
     def words(self) -> str:
         return self.WORDS
-
-    @property
-    def stored(self) -> bool:
-        return True
 
     @property
     def code(self) -> str:
@@ -173,10 +164,6 @@ class Enum(Type):
         return f"enum({', '.join(self.values)})"
 
     @property
-    def stored(self) -> bool:
-        return True
-
-    @property
     def code(self) -> str:
         return "q"
 
@@ -217,10 +204,6 @@ class Str(Type):
     @property
     def label(self) -> str:
         return f"str[{self.size}]"
-
-    @property
-    def stored(self) -> bool:
-        return True
 
     @property
     def code(self) -> str:

@@ -132,12 +132,16 @@ def apply(
             "W303",
             f"the acknowledgement of {code} {where} matches no finding",
             f"remove it if the finding is gone; {code} is about {kind}: acknowledge it "
-            + (
-                "on the command, with `states:`"
-                if kind == "a state"
-                else "on the rule, or on the command with `states:`"
-            ),
+            + _HOW.get(kind, "on the rule, or on the command with `states:`"),
         )
+
+
+# Where a finding about a state, or about a command (W704: no state nor rule of its own), is
+# acknowledged; one about a rule: on the rule, or on the command with `states:`.
+_HOW = {
+    "a state": "on the command, with `states:`",
+    "a command": "on the command, without `states:`",
+}
 
 
 def _where(entry: _Entry) -> str:
