@@ -20,6 +20,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping
+from operator import itemgetter
 from struct import Struct
 from time import perf_counter_ns as _module_clock  # the clock generated modules read
 from types import MappingProxyType, ModuleType
@@ -34,7 +35,6 @@ from .contract import (
     PROCESS,
     PROCESS_FIELDS,
     RUNNING,
-    SEQ,
     STARTING,
     STOPPED,
     field_names,
@@ -43,6 +43,7 @@ from .contract import (
     shared,
     silent,
     struct_format,
+    words,
 )
 from .override import latch_safe
 from .realtime import apply as apply_realtime
@@ -213,6 +214,10 @@ class Process:
         at = struct_format(MODE_FIELDS[: [n for n, _ in MODE_FIELDS].index("simulate")])
         offset = Struct(at).size
         self._switch_at = {name: layout.MODE_IN[name].offset + offset for name in plan.stand_ins}
+        # the simulate flags' bytes as one C call reads them (a tuple, or one int for one),
+        # and as they were when the stand-ins were last chosen: unchanged, nothing to choose
+        self._flag_bytes = itemgetter(*self._switch_at.values()) if self._switch_at else None
+        self._flags_seen: object = None
         self.simulated: tuple[str, ...] = ()
         self.modules: dict[str, Module] = {}
         self.steps: tuple[Callable[[int], int | None], ...] = ()  # each running module's cycle
@@ -228,6 +233,8 @@ class Process:
         # The control record: this process is its only writer (the launcher marks it dead).
         self.record = layout.PROCESSES[plan.name]
         self.record_seq = self.record.seq(buf)
+        self.record_word = self.record.offset >> 3  # its sequence word (contract.words)
+        self.words = words(buf)
         self.record_seq += self.record_seq & 1
         self.counters = dict.fromkeys(field_names(PROCESS_FIELDS), 0)
         self.counters.update(pid=os.getpid(), state=STARTING)
@@ -310,10 +317,13 @@ class Process:
         """Run every module once, in the declared order (between the I/O's read and write),
         then beat. The clock is read once before the first module and once by each module as
         it ends: a module's execution time is from the read before it to its own."""
-        if self._switch_at:
-            flags = self._simulate_flags()
-            if flags != self.simulated:
-                self._choose(flags)
+        if self._flag_bytes is not None:
+            seen = self._flag_bytes(self.block.buf)
+            if seen != self._flags_seen:
+                self._flags_seen = seen
+                flags = self._simulate_flags()
+                if flags != self.simulated:
+                    self._choose(flags)
         before, after = self.io_steps
         for io in before:
             io()
@@ -357,10 +367,10 @@ class Process:
         counters["beat_ns"] = time.monotonic_ns() if now_ns is None else now_ns
         counters["lost"] = self._lost_mask() if self.lost else 0
         seq = self.record_seq + 1
-        buf, at = self.block.buf, self.record.offset
-        SEQ.pack_into(buf, at, seq)  # odd before any field changes (contract.SEQ)
-        PROCESS.pack_into(buf, at, seq, *counters.values())
-        SEQ.pack_into(buf, at, seq + 1)
+        words, word = self.words, self.record_word
+        words[word] = seq  # odd before any field changes, in one 8-byte store
+        PROCESS.pack_into(self.block.buf, self.record.offset, seq, *counters.values())
+        words[word] = seq + 1
         self.record_seq = seq + 1
 
     def _lost_mask(self) -> int:
