@@ -67,7 +67,7 @@ class Mine:
         self.wedges: list[tuple[int, float]] = []
         # - the face for the last band of rows (a y that moves less than a cell keeps it),
         #   forgotten when a cut moves a row's first coal
-        self.face_at: tuple[range, float] | None = None
+        self.face_at: tuple[range, float, float] | None = None  # rows, face, depth cut
         # - the last call's arguments and result, kept only if it cut nothing: the same drum
         #   in the same place then cuts nothing again, and finds the same face
         self.last_call: tuple[float, float, float, bool] | None = None
@@ -260,11 +260,10 @@ def cut_coal(
             for c, level in levels:
                 if highest[c] > level:
                     highest[c] = level
-    if mine.face_at is not None and mine.face_at[0] == rows:
-        now = mine.face_at[1]
-    else:
+    kept = mine.face_at
+    if kept is None or kept[0] != rows:
         now = face(mine, y)  # (its rows are `rows`: the face is theirs alone)
-        mine.face_at = (rows, now)
-    result = contact, round6(now), round6(now - mine.first_face), round6(tonnes)
+        kept = mine.face_at = (rows, round6(now), round6(now - mine.first_face))
+    result = contact, kept[1], kept[2], round6(tonnes)
     mine.last_call, mine.last_result = (None if cut else call), result
     return result
