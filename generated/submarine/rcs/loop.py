@@ -36,6 +36,7 @@ from .contract import (
     PROCESS_FIELDS,
     RUNNING,
     STARTING,
+    STATUS_FIELDS,
     STOPPED,
     field_names,
     periodicity,
@@ -310,6 +311,28 @@ class Process:
                 clock.enter(self.block.buf, PAUSED, self.cycle)
         self.timed = timed
         self.steps = tuple(module.run_cycle for module in modules.values())
+        self._states_seen = None
+        self._block_states = self._status_states(timed)
+
+    def _status_states(self, timed: dict[str, tuple[StateClock, Any]]) -> Any:
+        """What reads, in one C call, the 8-byte word holding the state (and the rule) of
+        each timed module's status record; None to look at every module every cycle. A
+        generated controller or stand-in changes its state only in a cycle that writes its
+        status record (post_process writes it whenever a rule fired or status_dirty is set,
+        as every state change sets one), so while those words are as the last look left
+        them, no module's state has changed since. Anything else (an operator module, a
+        test's stand-in) is looked at every cycle."""
+        status = getattr(self.layout, "STATUS_OUT", {})
+        if not timed or not all(
+            name in status and hasattr(module, "status_dirty")
+            for name, (_, module) in timed.items()
+        ):
+            return None
+        names = [n for n, _ in STATUS_FIELDS]
+        state_at = Struct(struct_format(STATUS_FIELDS[: names.index("state")])).size
+        if state_at % 8:  # (a layout whose state does not begin a word: look every cycle)
+            return None
+        return itemgetter(*((status[name].offset + state_at) >> 3 for name in timed))
 
     # ------------------------------------------------------------ running
 
@@ -332,11 +355,17 @@ class Process:
             now = step(now or 0)
         for io in after:
             io()
-        buf, cycle = self.block.buf, self.cycle
-        for clock, module in self.timed.values():  # StateClock.tick inlined: a call per
-            state = module.state  # module per cycle where the state seldom changes
-            if state != clock.state:
-                clock.enter(buf, state, cycle)
+        states = self._block_states
+        seen = None if states is None else states(self.words)
+        if seen is None or seen != self._states_seen:
+            buf, cycle, settled = self.block.buf, self.cycle, True
+            for clock, module in self.timed.values():  # StateClock.tick inlined: a call per
+                state = module.state  # module per cycle where the state seldom changes
+                if state != clock.state:
+                    clock.enter(buf, state, cycle)
+                    settled = settled and clock.state == state  # (not PAUSED: a code it has)
+            # a module whose state has no count is entered again every cycle, as before
+            self._states_seen = seen if settled else None
         self.cycle += 1
         self.beat()
 
