@@ -42,8 +42,8 @@ PERF_WRITE = re.compile(
 
 def no_perf(source: str) -> str:
     """A module's source without its execution-time bookkeeping."""
-    source = source.replace("cycle_start = perf_counter_ns()\n", "\n")
-    return PERF_WRITE.sub("        self.cycles += 1\n", source)
+    source = source.replace("cycle_start = began or perf_counter_ns()\n", "\n")
+    return PERF_WRITE.sub("        self.cycles += 1\n        end = 0\n", source)
 
 
 def package(scratch: Path, name: str, edit: Callable[[str], str] | None) -> Path:

@@ -20,6 +20,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping
+from operator import itemgetter
 from struct import Struct
 from time import perf_counter_ns as _module_clock  # the clock generated modules read
 from types import MappingProxyType, ModuleType
@@ -34,8 +35,8 @@ from .contract import (
     PROCESS,
     PROCESS_FIELDS,
     RUNNING,
-    SEQ,
     STARTING,
+    STATUS_FIELDS,
     STOPPED,
     field_names,
     periodicity,
@@ -43,6 +44,7 @@ from .contract import (
     shared,
     silent,
     struct_format,
+    words,
 )
 from .override import latch_safe
 from .realtime import apply as apply_realtime
@@ -213,6 +215,10 @@ class Process:
         at = struct_format(MODE_FIELDS[: [n for n, _ in MODE_FIELDS].index("simulate")])
         offset = Struct(at).size
         self._switch_at = {name: layout.MODE_IN[name].offset + offset for name in plan.stand_ins}
+        # the simulate flags' bytes as one C call reads them (a tuple, or one int for one),
+        # and as they were when the stand-ins were last chosen: unchanged, nothing to choose
+        self._flag_bytes = itemgetter(*self._switch_at.values()) if self._switch_at else None
+        self._flags_seen: object = None
         self.simulated: tuple[str, ...] = ()
         self.modules: dict[str, Module] = {}
         self.steps: tuple[Callable[[int], int | None], ...] = ()  # each running module's cycle
@@ -228,6 +234,8 @@ class Process:
         # The control record: this process is its only writer (the launcher marks it dead).
         self.record = layout.PROCESSES[plan.name]
         self.record_seq = self.record.seq(buf)
+        self.record_word = self.record.offset >> 3  # its sequence word (contract.words)
+        self.words = words(buf)
         self.record_seq += self.record_seq & 1
         self.counters = dict.fromkeys(field_names(PROCESS_FIELDS), 0)
         self.counters.update(pid=os.getpid(), state=STARTING)
@@ -303,6 +311,28 @@ class Process:
                 clock.enter(self.block.buf, PAUSED, self.cycle)
         self.timed = timed
         self.steps = tuple(module.run_cycle for module in modules.values())
+        self._states_seen = None
+        self._block_states = self._status_states(timed)
+
+    def _status_states(self, timed: dict[str, tuple[StateClock, Any]]) -> Any:
+        """What reads, in one C call, the 8-byte word holding the state (and the rule) of
+        each timed module's status record; None to look at every module every cycle. A
+        generated controller or stand-in changes its state only in a cycle that writes its
+        status record (post_process writes it whenever a rule fired or status_dirty is set,
+        as every state change sets one), so while those words are as the last look left
+        them, no module's state has changed since. Anything else (an operator module, a
+        test's stand-in) is looked at every cycle."""
+        status = getattr(self.layout, "STATUS_OUT", {})
+        if not timed or not all(
+            name in status and hasattr(module, "status_dirty")
+            for name, (_, module) in timed.items()
+        ):
+            return None
+        names = [n for n, _ in STATUS_FIELDS]
+        state_at = Struct(struct_format(STATUS_FIELDS[: names.index("state")])).size
+        if state_at % 8:  # (a layout whose state does not begin a word: look every cycle)
+            return None
+        return itemgetter(*((status[name].offset + state_at) >> 3 for name in timed))
 
     # ------------------------------------------------------------ running
 
@@ -310,10 +340,13 @@ class Process:
         """Run every module once, in the declared order (between the I/O's read and write),
         then beat. The clock is read once before the first module and once by each module as
         it ends: a module's execution time is from the read before it to its own."""
-        if self._switch_at:
-            flags = self._simulate_flags()
-            if flags != self.simulated:
-                self._choose(flags)
+        if self._flag_bytes is not None:
+            seen = self._flag_bytes(self.block.buf)
+            if seen != self._flags_seen:
+                self._flags_seen = seen
+                flags = self._simulate_flags()
+                if flags != self.simulated:
+                    self._choose(flags)
         before, after = self.io_steps
         for io in before:
             io()
@@ -322,11 +355,17 @@ class Process:
             now = step(now or 0)
         for io in after:
             io()
-        buf, cycle = self.block.buf, self.cycle
-        for clock, module in self.timed.values():  # StateClock.tick inlined: a call per
-            state = module.state  # module per cycle where the state seldom changes
-            if state != clock.state:
-                clock.enter(buf, state, cycle)
+        states = self._block_states
+        seen = None if states is None else states(self.words)
+        if seen is None or seen != self._states_seen:
+            buf, cycle, settled = self.block.buf, self.cycle, True
+            for clock, module in self.timed.values():  # StateClock.tick inlined: a call per
+                state = module.state  # module per cycle where the state seldom changes
+                if state != clock.state:
+                    clock.enter(buf, state, cycle)
+                    settled = settled and clock.state == state  # (not PAUSED: a code it has)
+            # a module whose state has no count is entered again every cycle, as before
+            self._states_seen = seen if settled else None
         self.cycle += 1
         self.beat()
 
@@ -357,10 +396,10 @@ class Process:
         counters["beat_ns"] = time.monotonic_ns() if now_ns is None else now_ns
         counters["lost"] = self._lost_mask() if self.lost else 0
         seq = self.record_seq + 1
-        buf, at = self.block.buf, self.record.offset
-        SEQ.pack_into(buf, at, seq)  # odd before any field changes (contract.SEQ)
-        PROCESS.pack_into(buf, at, seq, *counters.values())
-        SEQ.pack_into(buf, at, seq + 1)
+        words, word = self.words, self.record_word
+        words[word] = seq  # odd before any field changes, in one 8-byte store
+        PROCESS.pack_into(self.block.buf, self.record.offset, seq, *counters.values())
+        words[word] = seq + 1
         self.record_seq = seq + 1
 
     def _lost_mask(self) -> int:

@@ -61,12 +61,21 @@ class Mine:
         # - the drum's levels per column for the last (x, boom angle): the same wherever it is
         self.levels_at: tuple[float, float] | None = None
         self.levels: list[tuple[int, float]] = []
-        # - the face for the last y, forgotten when a cut moves a row's first coal
-        self.face_at: tuple[float, float] | None = None
+        # - each column's wedge under the drum for the last x (what the levels add to the
+        #   drum's lowest point; a shear moves only the boom)
+        self.wedges_at: float | None = None
+        self.wedges: list[tuple[int, float]] = []
+        # - the face for the last band of rows (a y that moves less than a cell keeps it),
+        #   forgotten when a cut moves a row's first coal
+        self.face_at: tuple[range, float, float] | None = None  # rows, face, depth cut
         # - the last call's arguments and result, kept only if it cut nothing: the same drum
         #   in the same place then cuts nothing again, and finds the same face
         self.last_call: tuple[float, float, float, bool] | None = None
         self.last_result: tuple[bool, float, float, float] = (False, 0.0, 0.0, 0.0)
+        # - the highest cell of each column across the rows of the drum's band, for the band
+        #   `band_at` (None: none kept; a cut or a new grid forgets it)
+        self.band_at: range | None = None
+        self.band_max: list[float] = []
 
 
 def load_map(path: str | os.PathLike[str]) -> Mine:
@@ -157,23 +166,56 @@ def _make_grid(mine: Mine) -> None:
             row = mine.grid[r] = [-1.0] * mine.columns
         row[c] = standing
     mine.grid_of = mine.seam
+    mine.band_at = None
 
 
 def _levels(mine: Mine, x: float, boom_angle: float) -> list[tuple[int, float]]:
     """(column, the level the drum cuts it down to) for each map column under the drum: the
-    level its round bottom reaches over a column is the same in every row. `_wedge` is
-    written out in it, the same arithmetic (~1 us less a call of `cut_coal` that moved)."""
+    level its round bottom reaches over a column is the same in every row, the drum's lowest
+    point (from the boom angle) plus the column's wedge (from x alone: kept while x stays,
+    as it does through a shear)."""
     height = (boom_angle - FLOOR_ANGLE) / (ROOF_ANGLE - FLOOR_ANGLE)
     bottom = max(0.0, min(1.0, height) * (1.0 - DRUM_HEIGHT))
+    if mine.wedges_at != x:
+        mine.wedges = _wedges(mine, x)
+        mine.wedges_at = x
     levels = []
+    for c, wedge in mine.wedges:
+        level = bottom + wedge
+        if level > 1.0:  # min(1.0, level): neither is ever NaN
+            level = 1.0
+        levels.append((c, 0.0 if level < CUT_THROUGH else level))
+    return levels
+
+
+def _wedges(mine: Mine, x: float) -> list[tuple[int, float]]:
+    """(column, `_wedge` there) for each map column under a drum centred at `x`: `_wedge`
+    written out, the same arithmetic."""
+    wedges = []
     x0, columns = mine.x0, mine.columns
     for c in _span(x - DRUM_RADIUS, x + DRUM_RADIUS, x0):
         if 0 <= c < columns:  # no coal cell outside the map
-            offset = x0 + (c + 0.5) * CELL - x  # _wedge(mine, x, c):
-            wedge = (DRUM_RADIUS - math.sqrt(max(0.0, RADIUS_SQUARED - offset**2))) / SEAM_HEIGHT
-            level = min(1.0, bottom + wedge)
-            levels.append((c, 0.0 if level < CUT_THROUGH else level))
-    return levels
+            offset = x0 + (c + 0.5) * CELL - x
+            wedges.append(
+                (c, (DRUM_RADIUS - math.sqrt(max(0.0, RADIUS_SQUARED - offset**2))) / SEAM_HEIGHT)
+            )
+    return wedges
+
+
+def _may_touch(mine: Mine, rows: range, levels: list[tuple[int, float]]) -> bool:
+    """Whether any cell of `rows` stands above its column's level: False when each column's
+    highest cell across the band (kept for the band until a cut) is no higher."""
+    if mine.band_at != rows:
+        band = [mine.grid[r] for r in rows if r in mine.grid]
+        if not band:
+            return False
+        mine.band_max = list(map(max, *band)) if len(band) > 1 else band[0][:]
+        mine.band_at = rows
+    highest = mine.band_max
+    for c, level in levels:
+        if highest[c] > level:
+            return True
+    return False
 
 
 def cut_coal(
@@ -194,27 +236,34 @@ def cut_coal(
         mine.levels = _levels(mine, x, boom_angle)
         mine.levels_at = (x, boom_angle)
     levels, grid = mine.levels, mine.grid
+    rows = _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0)
     contact, cut, tonnes = False, False, 0.0
-    for r in _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0):
-        row = grid.get(r)
-        if row is None:  # no coal in this row
-            continue
-        for c, level in levels:
-            standing = row[c]  # -1.0: no coal cell there
-            if standing > level:
-                contact = True
-                if drum_on:
-                    cut = True
-                    tonnes += (standing - level) * TONNES_PER_CELL
-                    row[c] = level
-                    seam[r, c] = level
-                    if level <= FACE_MIN:
-                        _cut_to_floor(mine, r, c)
-    if mine.face_at is not None and mine.face_at[0] == y:
-        now = mine.face_at[1]
-    else:
-        now = face(mine, y)
-        mine.face_at = (y, now)
-    result = contact, round6(now), round6(now - mine.first_face), round6(tonnes)
+    if _may_touch(mine, rows, levels):
+        first = mine.first
+        for r in rows:
+            row = grid.get(r)
+            if row is None:  # no coal in this row
+                continue
+            for c, level in levels:
+                standing = row[c]  # -1.0: no coal cell there
+                if standing > level:
+                    contact = True
+                    if drum_on:
+                        cut = True
+                        tonnes += (standing - level) * TONNES_PER_CELL
+                        row[c] = level
+                        seam[r, c] = level
+                        if level <= FACE_MIN and first.get(r) == c:
+                            _cut_to_floor(mine, r, c)
+        if cut:  # every cell cut stands at its column's level now, none higher
+            highest = mine.band_max
+            for c, level in levels:
+                if highest[c] > level:
+                    highest[c] = level
+    kept = mine.face_at
+    if kept is None or kept[0] != rows:
+        now = face(mine, y)  # (its rows are `rows`: the face is theirs alone)
+        kept = mine.face_at = (rows, round6(now), round6(now - mine.first_face))
+    result = contact, kept[1], kept[2], round6(tonnes)
     mine.last_call, mine.last_result = (None if cut else call), result
     return result
