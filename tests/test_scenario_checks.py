@@ -154,3 +154,26 @@ def test_an_operator_script_for_a_system_without_operators(systems, tmp_path) ->
             "an operator module is a `<mnemonic>.yaml` with `operator:` (docs/spec.md 15)",
         )
     ]
+
+
+def test_a_scenario_without_max_cycles_runs_1000_cycles(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """The default max_cycles (docs/spec.md: 1000): an event at cycle 1000 happens, one at
+    1001 is refused as never happening, and the checked scenario runs 1000 cycles."""
+    cell = systems["cell"]
+    (tmp_path / "system.yaml").write_bytes((SPECS / "cell" / "system.yaml").read_bytes())
+    (tmp_path / "scenarios").mkdir()
+    path = tmp_path / "scenarios" / "s.yaml"
+    run = "events:\n  - cycle: 1000\n    command: sup.RUN\n    with: {moves: 1}\n"
+    path.write_text("scenario: s\ntitle: A scenario\n" + run)
+    scenario, found = check_scenario(path, cell)
+    assert not found.errors and scenario is not None and scenario.max_cycles == 1000
+    path.write_text("scenario: s\ntitle: A scenario\n" + run.replace("1000", "1001"))
+    _, found = check_scenario(path, cell)
+    assert [(d.code, d.message) for d in found.errors] == [
+        (
+            "E412",
+            "an event at cycle 1001 never happens: the run stops after max_cycles 1000",
+        )
+    ]
