@@ -177,3 +177,20 @@ def test_a_scenario_without_max_cycles_runs_1000_cycles(
             "an event at cycle 1001 never happens: the run stops after max_cycles 1000",
         )
     ]
+
+
+def test_a_scenario_the_schema_refuses_is_checked_no_further(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """A `max_cycles` that is not a number is the schema's one error: the checks against the
+    system (which compare each event's cycle with it) do not run on such a document."""
+    (tmp_path / "system.yaml").write_bytes((SPECS / "cell" / "system.yaml").read_bytes())
+    (tmp_path / "scenarios").mkdir()
+    path = tmp_path / "scenarios" / "s.yaml"
+    path.write_text(
+        "scenario: s\ntitle: A scenario\nmax_cycles: many\n"
+        "events:\n  - cycle: 3\n    command: sup.RUN\n    with: {moves: 1}\n"
+    )
+    scenario, found = check_scenario(path, systems["cell"])
+    assert scenario is None
+    assert [(d.code, d.span.line, d.span.col) for d in found.errors] == [("S003", 3, 13)]
