@@ -210,3 +210,11 @@ def test_a_scenario_that_stops_on_a_module_and_expects_nothing_expects_it_done(
     runs = "scenario: s\ntitle: A scenario\n"
     scenario, _ = check_scenario(written(tmp_path, systems["cell"], runs), systems["cell"])
     assert scenario is not None and scenario.expect == []
+    # how long the run takes (docs/spec.md's `cycles: {max: 300}`): bounds, no value
+    bounded = stops + "expect:\n  status: DONE\n  cycles: {max: 300}\n"
+    scenario, _ = check_scenario(written(tmp_path, systems["cell"], bounded), systems["cell"])
+    assert scenario is not None
+    assert [(e.what, e.value, e.low, e.high, e.span[1:]) for e in scenario.expect] == [
+        ("status", "DONE", None, None, (5, 11)),  # at the value: where E416 says it unmet
+        ("cycles", None, None, 300, (6, 11)),
+    ]
