@@ -184,6 +184,40 @@ def test_a_generated_module_that_failed_is_named_at_its_spec(
     )
 
 
+def test_a_hooks_module_that_failed_to_import_is_named_at_its_line(
+    inspection: IRSystem, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A generated module's import of its hooks module failed in the hooks module's own code:
+    E422 at the spec's `hooks:` line naming the module-level line that failed (the deepest
+    outside the package, not a function it called nor the import machinery); the import
+    statement itself failing (no such module) names the generated module's line."""
+    package, hooks = tmp_path / "inspection", tmp_path / "hooks"
+    package.mkdir()
+    hooks.mkdir()
+    broken = "def load():\n    raise ImportError('no numpy')\n\nLIMIT = load()\n"
+    (hooks / "broken_ms_hooks.py").write_text(broken)
+    monkeypatch.syspath_prepend(str(hooks))
+    monkeypatch.chdir(tmp_path)
+
+    def failed(text: str) -> tuple[str, ...]:
+        with pytest.raises(ImportError) as raised:
+            exec(compile(text, str(package / "ms.py"), "exec"), {})
+        return said(raised.value, inspection, 0, package=package)
+
+    assert failed("STATES = 3\nimport broken_ms_hooks\n") == (
+        "specs/inspection/ms.yaml:9:15",
+        "E422",
+        "hooks module `inspection_hooks.ms` of `ms` failed to import (hooks/broken_ms_hooks.py:4, "
+        "start-up): ImportError: no numpy",
+        "the module runs when the package starts: install what it imports, or fix the line "
+        "named; run again with -v for the Python traceback",
+    )
+    assert failed("STATES = 3\nimport no_such_hooks_module\n")[2] == (
+        "hooks module `inspection_hooks.ms` of `ms` failed to import (ms.py:2, start-up): "
+        "ModuleNotFoundError: No module named 'no_such_hooks_module'"
+    )
+
+
 def test_verbose_shows_the_hooks_own_traceback() -> None:
     try:
         raise ValueError("deep inside the hook")
