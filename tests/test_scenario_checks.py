@@ -218,3 +218,15 @@ def test_a_scenario_that_stops_on_a_module_and_expects_nothing_expects_it_done(
         ("status", "DONE", None, None, (5, 11)),  # at the value: where E416 says it unmet
         ("cycles", None, None, 300, (6, 11)),
     ]
+
+
+def test_a_console_answer_without_a_status_answers_done(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """An event's `answer:` names the request; its status defaults to DONE (as `rcsgen ctl
+    answer` does), its reason to none."""
+    inspection = systems["inspection"]
+    text = "scenario: s\ntitle: A scenario\nevents:\n  - cycle: 12\n    answer: {request: op/fx}\n"
+    scenario, found = check_scenario(written(tmp_path, inspection, text), inspection)
+    assert not found.errors and scenario is not None
+    assert [e.answer for e in scenario.events] == [("op/fx", "DONE", "")]
