@@ -20,7 +20,7 @@ import pytest
 pytest.importorskip("textual")
 
 from rich.text import Text  # noqa: E402
-from test_monitor import screen_text  # noqa: E402
+from test_monitor import screen_text, until  # noqa: E402
 from textual.widgets import DataTable, Input, Static  # noqa: E402
 
 from rcsgen.runtime.operate.ctl import CtlError  # noqa: E402
@@ -179,6 +179,11 @@ def said(app: monitor.Monitor) -> Text:
     return shown
 
 
+def footer(app: monitor.Monitor) -> str:
+    """The screen's last line: the footer with its keys."""
+    return screen_text(app).rstrip().splitlines()[-1]
+
+
 def static_text(app: monitor.Monitor, which: str) -> str:
     return str(app.query_one(which, Static).render())
 
@@ -233,7 +238,10 @@ def test_the_screen_shows_every_module_world_field_and_process_as_read(cell: Mod
         got["processes"] = static_text(app, "#processes")
         got["title"] = app.sub_title
         got["panels"] = [w.id for w in app.query(RowsPanel)]
-        got["footer"] = screen_text(app).rstrip().splitlines()[-1]
+        # textual's Footer draws its keys a refresh after the screen's bindings are published:
+        # one pause may end before that on a slow host (a line tracer, a loaded machine)
+        await until(pilot, lambda: "quit" in footer(app), "the footer's keys drawn")
+        got["footer"] = footer(app)
 
     console = on_screen(cell, look)
     assert got["headers"] == [

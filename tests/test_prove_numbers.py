@@ -178,15 +178,21 @@ commands:
 
 def test_a_replay_scripts_the_reason_the_model_chose_for_an_error(tmp_path):
     """The run retries only on REFUSED: its scenario scripts `ERROR(REFUSED)`, so the
-    generated code takes the retry and the finding is violated, not undecided."""
+    generated code takes the retry and the finding is violated, not undecided. Written
+    where --counterexamples says, in a folder per system (test_prove's are in the default
+    <system>/counterexamples/); inside the system's folder, so `rcsgen run` finds its
+    system.yaml above it."""
     directory = _system(tmp_path, RETRY_TOP)
     (directory / "sub.yaml").write_text(RETRY_SUB)
-    out = CliRunner().invoke(main, ["prove", str(directory), "--select", "W701"])
+    chosen = directory / "chosen"
+    args = ["prove", str(directory), "--select", "W701", "--counterexamples", str(chosen)]
+    out = CliRunner().invoke(main, args)
     line = next(x for x in out.output.splitlines() if "warning[W701]" in x)
     assert "is violated" in line and "replayed in the generated code" in line, out.output
-    written = (directory / "counterexamples" / "top_w701_go.yaml").read_text()
+    assert not (directory / "counterexamples").exists()
+    written = (chosen / "tiny" / "top_w701_go.yaml").read_text()
     assert "sub: ERROR(REFUSED)" in written, written
     # and `rcsgen run` takes the scenario as written: the reason is one sub can give
-    ran = CliRunner().invoke(main, ["run", str(directory / "counterexamples" / "top_w701_go.yaml")])
+    ran = CliRunner().invoke(main, ["run", str(chosen / "tiny" / "top_w701_go.yaml")])
     assert "E408" not in ran.output and "Traceback" not in ran.output, ran.output
     assert "run failed: nothing was run" not in ran.output, ran.output

@@ -152,6 +152,72 @@ def test_the_run_failing_and_a_plc_that_did_not_start() -> None:
     )
 
 
+def test_a_generated_module_that_failed_is_named_at_its_spec(
+    inspection: IRSystem, tmp_path: Path
+) -> None:
+    """The innermost frame in the generated package that is a controller's module names
+    it (not the package's __init__, __main__ or layout, nor a file outside the package):
+    E422 at that controller's spec."""
+    package = tmp_path / "inspection"
+    package.mkdir()
+    files = {  # ms calls into each of the package's other files, the last one fails
+        "ms": "def step():\n    loop()\n",
+        "__main__": "def loop():\n    offset(0)\n",
+        "layout": "def offset(n):\n    return divide(8, n)\n",
+        "__init__": "def divide(a, b):\n    return a // b\n",
+    }
+    namespace: dict[str, object] = {}
+    for name, text in files.items():  # each compiled under its file's name, as imported
+        path = package / f"{name}.py"
+        path.write_text(text)
+        exec(compile(text, str(path), "exec"), namespace)
+    with pytest.raises(ZeroDivisionError) as raised:
+        namespace["step"]()  # type: ignore[operator]
+    assert said(raised.value, inspection, 7, package=package) == (
+        "specs/inspection/ms.yaml:1:1",
+        "E422",
+        "module `ms` failed in cycle 7: ZeroDivisionError: integer division or modulo by zero",
+        "run again with -v for the Python traceback",
+    )
+    assert said(raised.value, inspection, 7)[2] == (  # no package known: the run
+        "the run failed in cycle 7: ZeroDivisionError: integer division or modulo by zero"
+    )
+
+
+def test_a_hooks_module_that_failed_to_import_is_named_at_its_line(
+    inspection: IRSystem, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A generated module's import of its hooks module failed in the hooks module's own code:
+    E422 at the spec's `hooks:` line naming the module-level line that failed (the deepest
+    outside the package, not a function it called nor the import machinery); the import
+    statement itself failing (no such module) names the generated module's line."""
+    package, hooks = tmp_path / "inspection", tmp_path / "hooks"
+    package.mkdir()
+    hooks.mkdir()
+    broken = "def load():\n    raise ImportError('no numpy')\n\nLIMIT = load()\n"
+    (hooks / "broken_ms_hooks.py").write_text(broken)
+    monkeypatch.syspath_prepend(str(hooks))
+    monkeypatch.chdir(tmp_path)
+
+    def failed(text: str) -> tuple[str, ...]:
+        with pytest.raises(ImportError) as raised:
+            exec(compile(text, str(package / "ms.py"), "exec"), {})
+        return said(raised.value, inspection, 0, package=package)
+
+    assert failed("STATES = 3\nimport broken_ms_hooks\n") == (
+        "specs/inspection/ms.yaml:9:15",
+        "E422",
+        "hooks module `inspection_hooks.ms` of `ms` failed to import (hooks/broken_ms_hooks.py:4, "
+        "start-up): ImportError: no numpy",
+        "the module runs when the package starts: install what it imports, or fix the line "
+        "named; run again with -v for the Python traceback",
+    )
+    assert failed("STATES = 3\nimport no_such_hooks_module\n")[2] == (
+        "hooks module `inspection_hooks.ms` of `ms` failed to import (ms.py:2, start-up): "
+        "ModuleNotFoundError: No module named 'no_such_hooks_module'"
+    )
+
+
 def test_verbose_shows_the_hooks_own_traceback() -> None:
     try:
         raise ValueError("deep inside the hook")

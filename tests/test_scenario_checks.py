@@ -25,14 +25,20 @@ def systems() -> dict[str, IRSystem]:
     return {s.name: s for s in front.systems}
 
 
-def said(tmp_path: Path, system: IRSystem, body: str) -> list[tuple[str, str, str]]:
+def written(tmp_path: Path, system: IRSystem, text: str) -> Path:
+    """`text` as a scenario in a scratch system folder: the system file beside it, the rest
+    compiled once (the scratch directory holds no controller)."""
     folder = tmp_path / "scenarios"
     folder.mkdir(exist_ok=True)
-    # a scenario lives in its system's scenarios/: the system file beside it, the rest
-    # compiled once (the scratch directory holds no controller)
     (tmp_path / "system.yaml").write_bytes((SPECS / system.name / "system.yaml").read_bytes())
     path = folder / "s.yaml"
-    path.write_text("scenario: s\ntitle: A scenario\nmax_cycles: 20\n" + body)
+    path.write_text(text)
+    return path
+
+
+def said(tmp_path: Path, system: IRSystem, body: str) -> list[tuple[str, str, str]]:
+    # a scenario lives in its system's scenarios/
+    path = written(tmp_path, system, "scenario: s\ntitle: A scenario\nmax_cycles: 20\n" + body)
     _, found = check_scenario(path, system)
     return [(d.code, d.message, d.hint) for d in found.errors]
 
@@ -154,3 +160,73 @@ def test_an_operator_script_for_a_system_without_operators(systems, tmp_path) ->
             "an operator module is a `<mnemonic>.yaml` with `operator:` (docs/spec.md 15)",
         )
     ]
+
+
+def test_a_scenario_without_max_cycles_runs_1000_cycles(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """The default max_cycles (docs/spec.md: 1000): an event at cycle 1000 happens, one at
+    1001 is refused as never happening, and the checked scenario runs 1000 cycles."""
+    cell = systems["cell"]
+    run = "events:\n  - cycle: 1000\n    command: sup.RUN\n    with: {moves: 1}\n"
+    path = written(tmp_path, cell, "scenario: s\ntitle: A scenario\n" + run)
+    scenario, found = check_scenario(path, cell)
+    assert not found.errors and scenario is not None and scenario.max_cycles == 1000
+    path.write_text("scenario: s\ntitle: A scenario\n" + run.replace("1000", "1001"))
+    _, found = check_scenario(path, cell)
+    assert [(d.code, d.message) for d in found.errors] == [
+        (
+            "E412",
+            "an event at cycle 1001 never happens: the run stops after max_cycles 1000",
+        )
+    ]
+
+
+def test_a_scenario_the_schema_refuses_is_checked_no_further(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """A `max_cycles` that is not a number is the schema's one error: the checks against the
+    system (which compare each event's cycle with it) do not run on such a document."""
+    path = written(
+        tmp_path,
+        systems["cell"],
+        "scenario: s\ntitle: A scenario\nmax_cycles: many\n"
+        "events:\n  - cycle: 3\n    command: sup.RUN\n    with: {moves: 1}\n",
+    )
+    scenario, found = check_scenario(path, systems["cell"])
+    assert scenario is None
+    assert [(d.code, d.span.line, d.span.col) for d in found.errors] == [("S003", 3, 13)]
+
+
+def test_a_scenario_that_stops_on_a_module_and_expects_nothing_expects_it_done(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """Without `expect:`, a run that stops on a module expects that module DONE (at the
+    stop_when_done line); one that stops on nothing expects nothing."""
+    stops = "scenario: s\ntitle: A scenario\nstop_when_done: sup\n"
+    scenario, _ = check_scenario(written(tmp_path, systems["cell"], stops), systems["cell"])
+    assert scenario is not None
+    assert [(e.what, e.value, e.span.line) for e in scenario.expect] == [("status", "DONE", 3)]
+    runs = "scenario: s\ntitle: A scenario\n"
+    scenario, _ = check_scenario(written(tmp_path, systems["cell"], runs), systems["cell"])
+    assert scenario is not None and scenario.expect == []
+    # how long the run takes (docs/spec.md's `cycles: {max: 300}`): bounds, no value
+    bounded = stops + "expect:\n  status: DONE\n  cycles: {max: 300}\n"
+    scenario, _ = check_scenario(written(tmp_path, systems["cell"], bounded), systems["cell"])
+    assert scenario is not None
+    assert [(e.what, e.value, e.low, e.high, e.span[1:]) for e in scenario.expect] == [
+        ("status", "DONE", None, None, (5, 11)),  # at the value: where E416 says it unmet
+        ("cycles", None, None, 300, (6, 11)),
+    ]
+
+
+def test_a_console_answer_without_a_status_answers_done(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """An event's `answer:` names the request; its status defaults to DONE (as `rcsgen ctl
+    answer` does), its reason to none."""
+    inspection = systems["inspection"]
+    text = "scenario: s\ntitle: A scenario\nevents:\n  - cycle: 12\n    answer: {request: op/fx}\n"
+    scenario, found = check_scenario(written(tmp_path, inspection, text), inspection)
+    assert not found.errors and scenario is not None
+    assert [e.answer for e in scenario.events] == [("op/fx", "DONE", "")]

@@ -261,6 +261,107 @@ def test_coverage_gives_the_time_per_state_of_each_module() -> None:
     }
 
 
+def made_up_coverage() -> coverage.Coverage:
+    """Three modules in rule order: `a` run by no trace, `b` with every rule fired (its
+    states tied at 2 cycles inserted out of order, its period with a 7th decimal), `c` run
+    with one rule missed and no known period."""
+    rule = coverage.RuleCount
+    return coverage.Coverage(
+        "made",
+        ["t1", "t2"],
+        [
+            rule("a", "INIT/S0/1", "a.yaml:3", "always", "start"),
+            rule("b", "GO/S0/1", "b.yaml:5", "always", "go", 3, ["t1", "t2"]),
+            rule("c", "GO/S0/1", "c.yaml:7", "ready", "wait", 1, ["t2"]),
+            rule("c", "GO/S0/10", "c.yaml:9", "x > 1 and y", "far"),
+        ],
+        {"a": [], "b": ["t1", "t2"], "c": ["t2"]},
+        {"b": {"GO/S1": 2, "GO/S0": 2, "idle": 5}, "c": {"GO/S0": 4}},
+        {"a": 0.5, "b": 0.1234567},
+    )
+
+
+def test_coverage_text_says_what_never_fired_and_where_each_module_spent_its_cycles() -> None:
+    """The text view whole: the per-module table (a module no trace ran says so), the rules
+    that never fired per module (a module that missed none left out), the states most
+    cycles first (ties by name), a module without a known period at 0 s."""
+    assert coverage.to_text(made_up_coverage()) == (
+        "rule coverage of made over 2 trace(s): 2 of 4 table rules fired (50.0%)\n"
+        "\n"
+        "module   rules fired         ran in\n"
+        "a            1     0   0.0%  no trace\n"
+        "b            1     1 100.0%  2 trace(s)\n"
+        "c            2     1  50.0%  1 trace(s)\n"
+        "\n"
+        "never fired:\n"
+        "  a  (not run by any trace)\n"
+        "    INIT/S0/1  a.yaml:3  always\n"
+        "  c\n"
+        "    GO/S0/10  c.yaml:9  x > 1 and y\n"
+        "\n"
+        "time per state (cycles, seconds, share of the module's traced cycles):\n"
+        "  b\n"
+        "    idle         5      0.6 s   55.6%\n"
+        "    GO/S0        2      0.2 s   22.2%\n"
+        "    GO/S1        2      0.2 s   22.2%\n"
+        "  c\n"
+        "    GO/S0        4      0.0 s  100.0%\n"
+    )
+    empty = coverage.to_text(coverage.Coverage("none", [], [], {}))
+    assert empty.startswith("rule coverage of none over 0 trace(s): 0 of 0 table rules fired (-)\n")
+
+
+def test_coverage_json_holds_each_modules_rules_and_seconds_per_state() -> None:
+    text = coverage.to_json(made_up_coverage())
+    assert text.startswith('{\n  "fired": 2,\n  "modules": [\n    {\n      "module": "a",')
+    data = json.loads(text)
+    assert (data["system"], data["traces"], data["rules"], data["fired"]) == (
+        "made",
+        ["t1", "t2"],
+        4,
+        2,
+    )
+    by = {m["module"]: m for m in data["modules"]}
+    assert list(by) == ["a", "b", "c"]
+    assert [m["ran_in"] for m in by.values()] == [[], ["t1", "t2"], ["t2"]]
+    assert by["a"]["time_per_state"] == {}
+    assert by["b"]["time_per_state"]["GO/S0"] == {"cycles": 2, "seconds": 0.246913}
+    assert by["c"]["time_per_state"] == {"GO/S0": {"cycles": 4, "seconds": 0.0}}
+    assert by["c"]["rules"] == [
+        {
+            "rule": "GO/S0/1",
+            "where": "c.yaml:7",
+            "guard": "ready",
+            "doc": "wait",
+            "cycles": 1,
+            "traces": ["t2"],
+        },
+        {
+            "rule": "GO/S0/10",
+            "where": "c.yaml:9",
+            "guard": "x > 1 and y",
+            "doc": "far",
+            "cycles": 0,
+            "traces": [],
+        },
+    ]
+
+
+def test_coverage_adds_up_the_cycles_of_every_trace_given() -> None:
+    """A rule's cycles are the sum over the traces (the same trace twice: twice its count),
+    each trace it fired in named; an unconditional rule's guard reads `always`."""
+    trace = traces.load(GOLDEN / "cell" / "plan_ahead.jsonl")
+    system = compile_paths([REPO / "specs" / "cell"]).systems[0]
+    once = {(r.module, r.rule): r.cycles for r in coverage.measure(system, [trace]).rules}
+    twice = coverage.measure(system, [trace, trace])
+    assert sum(once.values()) > 0
+    assert {(r.module, r.rule): r.cycles for r in twice.rules} == {
+        key: 2 * cycles for key, cycles in once.items()
+    }
+    init = next(r for r in twice.rules if (r.module, r.rule) == ("sup", "INIT/S0/1"))
+    assert (init.guard, init.traces) == ("always", [trace.name, trace.name])
+
+
 # ---------------------------------------------------------------- command line
 
 

@@ -45,14 +45,10 @@ def check_devices(system: IRSystem) -> Diagnostics:
             diags.error(
                 at,
                 "E458",
-                f"device `{device.name}` at {where} has no {_what(point)} "
+                f"device `{device.name}` at {where} has no {point.kind} {point.address} "
                 f"for `{point.field}`: {why}",
             )
     return diags
-
-
-def _what(point: Point) -> str:
-    return f"node {point.address}" if point.kind == "node" else f"{point.kind} {point.address}"
 
 
 def _probe(device: Device) -> list[tuple[Point, str]]:
