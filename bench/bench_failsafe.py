@@ -131,11 +131,12 @@ def one(target: str, fault: str) -> dict[str, float]:
         block = Block(layout, segment, create=False)
         buf = block.buf
         wait_for(lambda: moving(buf), "the miner moving")
-        pids = [int(r.read(buf)["pid"]) for r in layout.PROCESSES.values()]
-        trips = {n: int(r.read(buf)["watchdog_trips"]) for n, r in layout.PROCESSES.items()}
-        pid = (
-            launcher.pid if target == "launcher" else int(layout.PROCESSES[target].read(buf)["pid"])
-        )
+        records: dict[str, dict] = {}  # each control record, read whole (a beat may be going on)
+        for name, record in layout.PROCESSES.items():
+            wait_for(lambda n=name, r=record: records.update({n: read(r, buf)}) or records[n], name)
+        pids = [int(r["pid"]) for r in records.values()]
+        trips = {n: int(r["watchdog_trips"]) for n, r in records.items()}
+        pid = launcher.pid if target == "launcher" else int(records[target]["pid"])
         began = time.monotonic()
         if fault == "kill":
             os.kill(pid, signal.SIGKILL)
