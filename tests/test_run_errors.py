@@ -205,7 +205,7 @@ def test_a_hooks_module_that_failed_to_import_is_named_at_its_line(
         return said(raised.value, inspection, 0, package=package)
 
     assert failed("STATES = 3\nimport broken_ms_hooks\n") == (
-        "specs/inspection/ms.yaml:9:15",
+        at("inspection/ms.yaml", "hooks_module:", "inspection_hooks.ms"),
         "E422",
         "hooks module `inspection_hooks.ms` of `ms` failed to import (hooks/broken_ms_hooks.py:4, "
         "start-up): ImportError: no numpy",
