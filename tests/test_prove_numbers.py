@@ -9,6 +9,7 @@ in one line and leaves the run to the replay.
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -180,11 +181,11 @@ def test_a_replay_scripts_the_reason_the_model_chose_for_an_error(tmp_path):
     """The run retries only on REFUSED: its scenario scripts `ERROR(REFUSED)`, so the
     generated code takes the retry and the finding is violated, not undecided. Written
     where --counterexamples says, in a folder per system (test_prove's are in the default
-    <system>/counterexamples/); inside the system's folder, so `rcsgen run` finds its
-    system.yaml above it."""
+    <system>/counterexamples/); outside the system's folder, so the scenario names its
+    system (`system:`, relative to the file) and `rcsgen run` replays it from there."""
     directory = _system(tmp_path, RETRY_TOP)
     (directory / "sub.yaml").write_text(RETRY_SUB)
-    chosen = directory / "chosen"
+    chosen = tmp_path / "elsewhere"
     args = ["prove", str(directory), "--select", "W701", "--counterexamples", str(chosen)]
     out = CliRunner().invoke(main, args)
     line = next(x for x in out.output.splitlines() if "warning[W701]" in x)
@@ -192,6 +193,8 @@ def test_a_replay_scripts_the_reason_the_model_chose_for_an_error(tmp_path):
     assert not (directory / "counterexamples").exists()
     written = (chosen / "tiny" / "top_w701_go.yaml").read_text()
     assert "sub: ERROR(REFUSED)" in written, written
+    relative = os.path.relpath(directory, chosen / "tiny")
+    assert f"\nsystem: {relative}\n" in written, written
     # and `rcsgen run` takes the scenario as written: the reason is one sub can give
     ran = CliRunner().invoke(main, ["run", str(chosen / "tiny" / "top_w701_go.yaml")])
     assert "E408" not in ran.output and "Traceback" not in ran.output, ran.output

@@ -144,7 +144,30 @@ def test_a_scenario_out_of_a_system_directory_or_of_one_that_does_not_build(
         assert scenario is None and len(found.errors) == 1
         said[name] = found.errors[0]
     lone, inside = said["lone.yaml"], said["sys/scenarios/s.yaml"]
-    assert (lone.code, lone.hint) == ("E403", "keep scenarios in the system's scenarios/ directory")
+    assert (lone.code, lone.hint) == (
+        "E403",
+        "keep scenarios in the system's scenarios/ directory, or name the system's directory "
+        "with `system:`",
+    )
     assert lone.message.startswith("no system.yaml above `") and lone.message.endswith("lone.yaml`")
     assert (inside.code, inside.message) == ("E403", "the system this scenario runs does not build")
     assert inside.hint.startswith("run `rcsgen validate ")
+
+
+def test_a_scenario_names_its_system_with_system(tmp_path: Path) -> None:
+    """`system:` (relative to the file) says which system a scenario runs, wherever the
+    file is (`rcsgen prove --counterexamples DIR` writes it outside the system's folder);
+    a directory without a system.yaml is E403 at the value."""
+    (tmp_path / "sys").mkdir()
+    (tmp_path / "sys" / "system.yaml").write_text("system: broken\nprocesses: 3\n")
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "named.yaml").write_text(MINIMAL + "system: ../sys\n")
+    (tmp_path / "out" / "wrong.yaml").write_text(MINIMAL + "system: ../nowhere\n")
+    _, found = check_scenario(tmp_path / "out" / "named.yaml")
+    assert [(d.code, d.message) for d in found.errors] == [
+        ("E403", "the system this scenario runs does not build")  # found: it is sys's
+    ]
+    _, found = check_scenario(tmp_path / "out" / "wrong.yaml")
+    assert [(d.code, d.span.line, d.span.col, d.message) for d in found.errors] == [
+        ("E403", 4, 9, "no system.yaml in `../nowhere` (this scenario's `system:`)")
+    ]

@@ -12,6 +12,7 @@ computed something else, a local the model left free) makes it "undecided", and 
 
 from __future__ import annotations
 
+import os
 import tempfile
 from fractions import Fraction
 from pathlib import Path
@@ -20,9 +21,11 @@ from typing import Any
 import yaml
 
 from ..compiler import ir
+from ..compiler.frontend import real_path
 from ..compiler.prove import Finding, SystemProof
 from ..compiler.types import Bool, Str, Type
 from .harness import Harness, import_package, write_package
+from .scenario.model import find_system_dir
 from .scenario.run import reply
 
 
@@ -94,13 +97,17 @@ def events(system: ir.IRSystem, finding: Finding) -> tuple[list[dict[str, Any]],
     return out, why
 
 
-def scenario_text(system: ir.IRSystem, finding: Finding, name: str) -> str:
-    """The scenario file of a counter-example."""
+def scenario_text(
+    system: ir.IRSystem, finding: Finding, name: str, system_dir: str | None = None
+) -> str:
+    """The scenario file of a counter-example; `system_dir`: its `system:`, the system's
+    directory relative to where the file is written, when that is not above it."""
     found, _ = events(system, finding)
     data: dict[str, Any] = {
         "scenario": name,
         "title": f"rcsgen prove: {finding.code} in {finding.controller}",
         "doc": str(finding.message),
+        **({"system": system_dir} if system_dir is not None else {}),
         "process": str(_process_of(system, finding.controller).name),
         "max_cycles": max(1, len(finding.trace)),
         "events": found,
@@ -185,6 +192,9 @@ def replay_all(
     """Replay every finding (or the `only` ones, by index) of a proof: set its verdict, and
     write its scenario into `out_dir` when given."""
     replayer = Replayer(system, system_dir)
+    pointer = None  # the scenarios' `system:` where the walk up from out_dir would not find it
+    if out_dir is not None and find_system_dir(out_dir / "x.yaml") != real_path(system_dir):
+        pointer = Path(os.path.relpath(real_path(system_dir), real_path(out_dir))).as_posix()
     try:
         names: dict[str, int] = {}
         for index, finding in enumerate(proof.findings):
@@ -201,7 +211,7 @@ def replay_all(
                 name = base if names[base] == 1 else f"{base}_{names[base]}"
                 out_dir.mkdir(parents=True, exist_ok=True)
                 path = out_dir / f"{name}.yaml"
-                path.write_text(scenario_text(system, finding, name), encoding="utf-8")
+                path.write_text(scenario_text(system, finding, name, pointer), encoding="utf-8")
                 finding.scenario = str(path)
     finally:
         replayer.close()

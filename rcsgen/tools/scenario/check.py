@@ -69,9 +69,18 @@ def check_scenario(
         hint = "a scenario starts with `scenario: <name>`; see docs/spec.md section 10"
         diags.error(top, "E401", "not a scenario file (no `scenario:` key)", hint)
         return None, diags
-    system_dir = find_system_dir(path)
-    if system_dir is None:
-        hint = "keep scenarios in the system's scenarios/ directory"
+    declared = data.get("system")
+    system_dir = find_system_dir(path, declared)
+    if system_dir is None and isinstance(declared, str):
+        hint = "name the system's directory, relative to this file (the one with system.yaml)"
+        where = value_span(data, "system", top)
+        what = f"no {SYSTEM_FILE} in `{declared}` (this scenario's `system:`)"
+        diags.error(where, "E403", what, hint)
+    elif system_dir is None:
+        hint = (
+            "keep scenarios in the system's scenarios/ directory, or name the system's "
+            "directory with `system:`"
+        )
         diags.error(top, "E403", f"no {SYSTEM_FILE} above `{shown}`", hint)
     diags.extend(check_document(data, "scenario", shown))
     if diags.errors or system_dir is None:

@@ -147,9 +147,27 @@ class Scenario:
     devices: dict[str, SoftPlc] = field(default_factory=dict)  # served by soft PLCs, paced
 
 
-def find_system_dir(path: Path) -> Path | None:
-    """The nearest directory above a scenario file that holds a system.yaml."""
+def find_system_dir(path: Path, declared: object = None) -> Path | None:
+    """The system a scenario file runs: the directory its `system:` names (`declared`,
+    relative to the file), else the nearest directory above it holding a system.yaml; None
+    when that directory holds none."""
+    if isinstance(declared, str):
+        named = real_path(path).parent / declared
+        return named.resolve() if (named / SYSTEM_FILE).is_file() else None
     for parent in real_path(path).parents:
         if (parent / SYSTEM_FILE).is_file():
             return parent
     return None
+
+
+def declared_system(path: Path) -> object:
+    """The `system:` a scenario file declares (None without one, or when the file cannot be
+    read: the scenario check then says why)."""
+    from ...compiler.diagnostics import SpecError
+    from ...compiler.front_end.loader import LocDict, load_file
+
+    try:
+        data = load_file(path, str(path))
+    except SpecError:
+        return None
+    return data.get("system") if isinstance(data, LocDict) else None

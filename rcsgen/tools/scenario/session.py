@@ -26,7 +26,7 @@ from ..harness import AnyHarness, import_layout, write_package
 from . import runs
 from .check import check_scenario
 from .devices import Bench
-from .model import Scenario, find_system_dir
+from .model import Scenario, declared_system, find_system_dir
 from .run import LiveTrace, RunResult, interrupted_line, open_harness, run, write_trace
 
 
@@ -45,7 +45,7 @@ def check(path: Path) -> Checked:
     checked against it (a system that does not build has an error among the diagnostics;
     without a system directory the scenario check reports E403)."""
     checked = Checked()
-    system_dir = find_system_dir(path)
+    system_dir = find_system_dir(path, declared_system(path))
     if system_dir is not None:
         front = compile_paths([system_dir])
         checked.diagnostics.append(front.diagnostics)
