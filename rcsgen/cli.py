@@ -39,6 +39,7 @@ from .terminal import (
     page_option,
     report,
     reporting,
+    require_system,
     run_summary,
     scaffolded,
     specs_or_default,
@@ -301,8 +302,7 @@ def monitor(
     from .runtime.transport import TransportError
     from .tools.harness import import_layout
 
-    if not (system_dir / "system.yaml").is_file():
-        raise error(f"no system.yaml in {system_dir}", 2)
+    require_system(system_dir, "monitor")
     package_dir = generated / api.system_name(system_dir)
     if not (package_dir / "layout.py").is_file():
         raise error(f"no generated package at {package_dir}; run `rcsgen build` first")

@@ -536,13 +536,23 @@ def run_summary(
         yield f"recorded  {record}: review `git diff {record}` before committing"
 
 
+def require_system(system_dir: Path, command: str) -> None:
+    """Exit 2 unless `system_dir` holds a system.yaml: the commands that act on a running
+    system take its spec directory first (`rcsgen ctl status` takes `status` for it)."""
+    if not (system_dir / "system.yaml").is_file():
+        raise error(
+            f"no system.yaml in {system_dir}: give the system's spec directory first, "
+            f"as in `rcsgen {command} specs/miner ...`",
+            2,
+        )
+
+
 def exec_package(
     system_dir: Path, generated: Path, argv: list[str], ctx: click.Context | None = None
 ) -> None:
     """Replace this process by `python -m <system> ARGV`, the package and hooks on its path
     (with `--help` in ARGV: this command's usage first, then the package's help)."""
-    if not (system_dir / "system.yaml").is_file():
-        raise error(f"no system.yaml in {system_dir}", 2)
+    require_system(system_dir, ctx.info_name if ctx is not None and ctx.info_name else "up")
     name = api.system_name(system_dir)
     package = generated / name
     if not (package / "__main__.py").is_file():
