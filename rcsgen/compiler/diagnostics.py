@@ -188,17 +188,21 @@ def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     return f"did you mean `{close[0]}`?" if close else ""
 
 
+def _noun(count: int, noun: str, plural: str) -> str:
+    return noun if count == 1 else plural or noun + "s"
+
+
 def counted(count: int, noun: str, plural: str = "") -> str:
     """A count and its noun, singular or plural by the count: `1 argument`, `2 arguments`
     (`plural` where adding an s is wrong)."""
-    return f"{count} {noun if count == 1 else plural or noun + 's'}"
+    return f"{count} {_noun(count, noun, plural)}"
 
 
 def listed(noun: str, names: Iterable[str], plural: str = "") -> str:
     """A noun and the names it counts, singular or plural by them: `parameter x`,
     `parameters x, y`."""
     names = list(names)
-    return f"{noun if len(names) == 1 else plural or noun + 's'} {', '.join(names)}"
+    return f"{_noun(len(names), noun, plural)} {', '.join(names)}"
 
 
 def known_names_hint(kind: str, candidates: Iterable[str], name: str = "") -> str:

@@ -36,7 +36,7 @@ from .nodes import (
     walk,
 )
 from .printer import to_python, to_python_and_conjunct, to_python_conjunct
-from .resolve import Scope, compile_expr, did_you_mean_attr, offset_span
+from .resolve import Scope, compile_expr, did_you_mean_attr
 
 __all__ = [
     "ARITHMETIC",
@@ -66,7 +66,6 @@ __all__ = [
     "enum_constants",
     "fold",
     "int_range_problem",
-    "offset_span",
     "refs",
     "substitute",
     "text_problem_of",

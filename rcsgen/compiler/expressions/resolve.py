@@ -555,13 +555,6 @@ def _type_of_value(value: object) -> Type:
     return INT if isinstance(value, int) else FLOAT
 
 
-def offset_span(base: Span, lineno: int, col_offset: int) -> Span:
-    """The span of a node `col_offset` into line `lineno` of an expression found at `base`."""
-    if lineno <= 1:
-        return Span(base.file, base.line, base.col + col_offset)
-    return Span(base.file, base.line + lineno - 1, col_offset + 1)
-
-
 def expression_text(text: str) -> str:
     """The text an expression is parsed from: a multi-line one (a `>-` or `|` block, a
     quoted scalar over several lines) read as one line, its whitespace runs one space."""

@@ -10,7 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ...compiler.diagnostics import Span
+from ...compiler.diagnostics import Span, SpecError
+from ...compiler.front_end.loader import LocDict, load_file
 from ...compiler.frontend import SYSTEM_FILE, real_path
 
 
@@ -163,9 +164,6 @@ def find_system_dir(path: Path, declared: object = None) -> Path | None:
 def declared_system(path: Path) -> object:
     """The `system:` a scenario file declares (None without one, or when the file cannot be
     read: the scenario check then says why)."""
-    from ...compiler.diagnostics import SpecError
-    from ...compiler.front_end.loader import LocDict, load_file
-
     try:
         data = load_file(path, str(path))
     except SpecError:
