@@ -12,8 +12,14 @@ which every collection walked again (nearly half the time of an exploration).
 On the way out the heap is frozen (`gc.freeze`) before the collector is back on: otherwise
 the first allocation after the front end of 1,000 controllers walked its ~700,000 objects
 (~0.35 s CPU), and later collections walked them again, to free nothing. The next
-`no_collections` unfreezes them first (into the oldest generation), so whatever cyclic
-garbage a run left is collected as usual by a later full collection, not kept for good.
+`no_collections` unfreezes them first (into the oldest generation). Freezing takes the
+process's uncollected cyclic garbage along (the run's, and whatever the caller left in the
+young generations), and the oldest generation is seldom collected in full: a process that
+compiles again and again (the test suite, `make mutate-sample`'s one long coverage run, a
+tool built on the API) grew without bound — the coverage run to 24 GiB, killed by the
+kernel. So every `COLLECT_EVERY`-th unfreeze also collects in full: a build (the front end,
+then the render) or a prove pays nothing, and a long process keeps the garbage of a few
+runs at most.
 """
 
 from __future__ import annotations
@@ -22,15 +28,22 @@ import contextlib
 import gc
 from collections.abc import Iterator
 
+COLLECT_EVERY = 4  # unfreezes: at every 4th, a full collection of what the runs left
+_unfrozen = 0
+
 
 @contextlib.contextmanager
 def no_collections() -> Iterator[None]:
     """Run no cyclic collection inside (the collector's state restored on the way out, what
     is alive then frozen out of its way until the next `no_collections`)."""
+    global _unfrozen
     enabled = gc.isenabled()
     gc.disable()
-    if enabled:
+    if enabled and gc.get_freeze_count():
         gc.unfreeze()  # (what an earlier run froze: collectable again, in the oldest generation)
+        _unfrozen += 1
+        if _unfrozen % COLLECT_EVERY == 0:
+            gc.collect()  # (the garbage frozen with it: see above)
     try:
         yield
     finally:
