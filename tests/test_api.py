@@ -185,29 +185,26 @@ def test_what_the_front_end_leaves_is_frozen_until_the_next_run() -> None:
     gc.unfreeze()
 
 
-def test_garbage_frozen_with_a_run_is_collected_within_a_few_runs() -> None:
+def test_garbage_frozen_with_a_run_is_collected_once_the_heap_has_doubled() -> None:
     """Freezing at a run's end takes along the cyclic garbage the process had not collected
     yet; a process that compiles again and again (the suite, the mutation sample's coverage
-    run: 24 GiB, killed) must not keep it for good: a full collection at every
-    COLLECT_EVERY-th next run frees it."""
+    run: 24 GiB, killed) must not keep it for good: once the frozen heap has doubled since
+    the last full collection, the next run collects."""
     import gc
     import weakref
-
-    from rcsgen.compiler.collector import COLLECT_EVERY
 
     class Node:
         pass
 
     duo = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
-    gc.unfreeze()
-    gc.collect()
-    node = Node()
-    node.itself = node  # type: ignore[attr-defined]  # a cycle: only the collector frees it
-    gone = weakref.ref(node)
-    del node  # (garbage the process has not collected yet when the next run starts)
-    for _ in range(COLLECT_EVERY + 1):
+    rcsgen.check(duo)  # (a frozen heap to measure the next against)
+    rcsgen.check(duo)
+    nodes = [Node() for _ in range(3 * gc.get_freeze_count())]
+    for node in nodes:
+        node.itself = node  # type: ignore[attr-defined]  # cycles: only the collector frees them
+    gone = weakref.ref(nodes[0])
+    del nodes, node  # (garbage the process has not collected when the next runs start)
+    for _ in range(3):
         rcsgen.check(duo)
-        if gone() is None:
-            break
     gc.unfreeze()
     assert gone() is None, "cyclic garbage frozen with a run is never collected"

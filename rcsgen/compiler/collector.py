@@ -17,9 +17,10 @@ process's uncollected cyclic garbage along (the run's, and whatever the caller l
 young generations), and the oldest generation is seldom collected in full: a process that
 compiles again and again (the test suite, `make mutate-sample`'s one long coverage run, a
 tool built on the API) grew without bound — the coverage run to 24 GiB, killed by the
-kernel. So every `COLLECT_EVERY`-th unfreeze also collects in full: a build (the front end,
-then the render) or a prove pays nothing, and a long process keeps the garbage of a few
-runs at most.
+kernel. So an unfreeze also collects in full once the frozen heap has doubled since the
+last such collection (as a growing array doubles): a build (the front end, then the render)
+or a prove pays nothing, a long process a few collections in all, and its garbage stays
+within twice what it keeps alive.
 """
 
 from __future__ import annotations
@@ -28,22 +29,25 @@ import contextlib
 import gc
 from collections.abc import Iterator
 
-COLLECT_EVERY = 4  # unfreezes: at every 4th, a full collection of what the runs left
-_unfrozen = 0
+GROWTH = 2  # a full collection once the frozen heap is this many times the last one's
+_last = 0  # the frozen heap at the first unfreeze or the last collection (objects)
 
 
 @contextlib.contextmanager
 def no_collections() -> Iterator[None]:
     """Run no cyclic collection inside (the collector's state restored on the way out, what
     is alive then frozen out of its way until the next `no_collections`)."""
-    global _unfrozen
+    global _last
     enabled = gc.isenabled()
     gc.disable()
-    if enabled and gc.get_freeze_count():
+    frozen = gc.get_freeze_count() if enabled else 0
+    if frozen:
         gc.unfreeze()  # (what an earlier run froze: collectable again, in the oldest generation)
-        _unfrozen += 1
-        if _unfrozen % COLLECT_EVERY == 0:
+        if not _last:
+            _last = frozen
+        elif frozen > GROWTH * _last:
             gc.collect()  # (the garbage frozen with it: see above)
+            _last = frozen
     try:
         yield
     finally:
