@@ -30,7 +30,7 @@ import gc
 from collections.abc import Iterator
 
 GROWTH = 2  # a full collection once the frozen heap is this many times the last one's
-_last = 0  # the frozen heap at the first unfreeze or the last collection (objects)
+_last = 0  # the frozen heap at the first unfreeze, or what the last collection left (objects)
 
 
 @contextlib.contextmanager
@@ -47,7 +47,7 @@ def no_collections() -> Iterator[None]:
             _last = frozen
         elif frozen > GROWTH * _last:
             gc.collect()  # (the garbage frozen with it: see above)
-            _last = frozen
+            _last = len(gc.get_objects(generation=2))  # (what survived: all alive)
     try:
         yield
     finally:
