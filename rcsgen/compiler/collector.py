@@ -17,20 +17,22 @@ process's uncollected cyclic garbage along (the run's, and whatever the caller l
 young generations), and the oldest generation is seldom collected in full: a process that
 compiles again and again (the test suite, `make mutate-sample`'s one long coverage run, a
 tool built on the API) grew without bound — the coverage run to 24 GiB, killed by the
-kernel. So an unfreeze also collects in full once the frozen heap has doubled since the
-last such collection (as a growing array doubles): a build (the front end, then the render)
-or a prove pays nothing, a long process a few collections in all, and its garbage stays
-within twice what it keeps alive.
+kernel. So an unfreeze also collects in full once the heap (the allocator's blocks, cheap
+to count: `gc.get_freeze_count` walks the frozen list, 8 ms a run in a test worker) has
+doubled since the first freeze or the last such collection (as a growing array doubles): a
+build (the front end, then the render) or a prove pays nothing, a long process a few
+collections in all, and its garbage stays within what it keeps alive.
 """
 
 from __future__ import annotations
 
 import contextlib
 import gc
+import sys
 from collections.abc import Iterator
 
-GROWTH = 2  # a full collection once the frozen heap is this many times the last one's
-_last = 0  # the frozen heap at the first unfreeze, or what the last collection left (objects)
+GROWTH = 2  # a full collection once the heap is this many times what the last one left
+_last = 0  # the heap (memory blocks) at the first freeze, or what the last collection left
 
 
 @contextlib.contextmanager
@@ -40,17 +42,15 @@ def no_collections() -> Iterator[None]:
     global _last
     enabled = gc.isenabled()
     gc.disable()
-    frozen = gc.get_freeze_count() if enabled else 0
-    if frozen:
+    if enabled and _last:
         gc.unfreeze()  # (what an earlier run froze: collectable again, in the oldest generation)
-        if not _last:
-            _last = frozen
-        elif frozen > GROWTH * _last:
+        if sys.getallocatedblocks() > GROWTH * _last:
             gc.collect()  # (the garbage frozen with it: see above)
-            _last = len(gc.get_objects(generation=2))  # (what survived: all alive)
+            _last = sys.getallocatedblocks()  # (what survived: all alive)
     try:
         yield
     finally:
         if enabled:
             gc.freeze()
             gc.enable()
+            _last = _last or sys.getallocatedblocks()
