@@ -6,6 +6,7 @@ import copy
 import json
 import os
 import pathlib
+from pathlib import Path
 
 import jsonschema
 import pytest
@@ -446,3 +447,20 @@ def test_the_quick_loader_gives_the_reporting_ones_values_and_spans() -> None:
         assert not diags.errors, path
         assert _as_built(fast) == _as_built(built), path
     assert quick > 20
+
+
+def test_a_path_is_shown_relative_inside_the_working_directory_and_whole_outside(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`specs/x.yaml` for a file below the working directory; `/…/elsewhere/x.yaml`, not
+    `../elsewhere/x.yaml`, for one outside it (the climb says less than the path)."""
+    from rcsgen.compiler.frontend import display_path
+
+    (tmp_path / "work" / "specs").mkdir(parents=True)
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "work")
+    assert display_path(tmp_path / "work" / "specs" / "x.yaml") == "specs/x.yaml"
+    assert display_path(Path("specs/x.yaml")) == "specs/x.yaml"
+    outside = (tmp_path / "elsewhere" / "x.yaml").resolve()
+    assert display_path(tmp_path / "elsewhere" / "x.yaml") == outside.as_posix()
+    assert display_path(Path("../elsewhere/x.yaml")) == outside.as_posix()

@@ -52,13 +52,12 @@ def real_path(path: Path) -> Path:
 
 
 def display_path(path: Path) -> str:
-    """A path as diagnostics show it: relative to the working directory when inside it."""
+    """A path as diagnostics show it: relative to the working directory when inside it,
+    whole (absolute) when not (`../../etc/x.yaml` says less than `/etc/x.yaml`)."""
     # The file's own name as given (a symlink's problems are the link's), its directory real.
     shown = real_path(path.parent) / path.name if path.name else real_path(path)
-    try:
-        return Path(os.path.relpath(shown, Path.cwd())).as_posix()
-    except ValueError:  # another drive
-        return path.as_posix()
+    here = real_path(Path.cwd())
+    return (shown.relative_to(here) if shown.is_relative_to(here) else shown).as_posix()
 
 
 def source_path(path: Path, system_dir: Path) -> str:
