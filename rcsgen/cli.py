@@ -17,7 +17,7 @@ import click
 from . import api
 from .cli_prove import prove
 from .cli_trace import trace_group
-from .compiler.diagnostics import Diagnostics, SpecError
+from .compiler.diagnostics import Diagnostics, SpecError, counted
 from .terminal import (
     CHECK,
     GENERATED,
@@ -96,7 +96,7 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
     if check:
         if plan.stale:  # stdout holds the diagnostics in a machine format: the diff, stderr
             click.echo(write.unified_diff(plan, output), nl=False, err=opts.fmt != "text")
-            stale = f"{len(plan.write)} file(s) to write, {len(plan.delete)} to delete"
+            stale = f"{counted(len(plan.write), 'file')} to write, {len(plan.delete)} to delete"
             raise Exit(1, f"{output} is stale: {stale}; run `rcsgen build` to update it")
         note(opts, f"{output} is current ({plan.unchanged} files)")
         return
@@ -375,7 +375,7 @@ def doc_command(paths: tuple[Path, ...], output: Path, check: bool) -> None:
         if plan.stale:
             click.echo(write.unified_diff(plan, output), nl=False)
             shown = " ".join(str(p) for p in paths) or "specs/"
-            stale = f"{len(plan.write)} page(s) to write, {len(plan.delete)} to delete"
+            stale = f"{counted(len(plan.write), 'page')} to write, {len(plan.delete)} to delete"
             again = f"run `rcsgen doc {shown} -o {output}` to update it"
             raise Exit(1, f"{output} is stale: {stale}; {again}")
         click.echo(f"{output} is current ({plan.unchanged} pages)")

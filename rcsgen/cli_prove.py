@@ -12,6 +12,7 @@ from pathlib import Path
 import click
 
 from . import api
+from .compiler.diagnostics import counted
 from .compiler.ir import IRSystem
 from .terminal import SPEC_PATHS, Exit, Session, error, note, reporting, specs_or_default
 from .tools.report import Options
@@ -77,7 +78,7 @@ def prove(
             click.echo(line, err=True)
     if violated:
         session.finish()
-        raise Exit(1, f"prove: {violated} property violation(s)")
+        raise Exit(1, f"prove: {counted(violated, 'property violation')}")
     session.finish("prove: undecided findings fail with --strict")
     note(opts, f"proven: {', '.join(s.name for s in front.systems)}")
 

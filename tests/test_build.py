@@ -443,7 +443,7 @@ def test_check_on_a_stale_tree_prints_a_diff(work: Path) -> None:
     assert result.exit_code == 1
     assert result.stdout.startswith("--- a/miner/co.py\n+++ b/miner/co.py\n@@ ")
     assert "\n-LOOSE_COAL_LIMIT = 4.0\n+LOOSE_COAL_LIMIT = 5.0\n" in result.stdout
-    assert "generated is stale: 1 file(s) to write, 0 to delete" in result.stderr
+    assert "generated is stale: 1 file to write, 0 to delete" in result.stderr
     assert snapshot(work / "generated") == before
     assert mtimes(work / "generated") == stamps
 
@@ -466,7 +466,7 @@ def test_symlinked_system_directory_is_refused(work: Path) -> None:
     result = rcsgen("build")
     assert result.exit_code == 1
     assert "generated/miner:1:1: error[E301]: refusing to write through symlink" in result.output
-    assert "\n1 error(s), " in result.output  # one problem, counted once
+    assert "\n1 error, " in result.output  # one problem, counted once
     assert snapshot(real) == before
     assert mtimes(real) == stamps
 

@@ -233,7 +233,7 @@ def test_validate_shows_the_line_and_a_caret_under_the_column(tmp_path, monkeypa
         "  |         - when: world.levle < 2.0\n"
         "  |                 ^\n"
         "  = hint: did you mean `level`?\n"
-        "1 error(s), 0 warning(s)\n"
+        "1 error, 0 warnings\n"
     )
 
 

@@ -109,7 +109,7 @@ def test_an_impossible_count_is_replaced_by_a_longer_run_that_counts_up(tmp_path
     out = CliRunner().invoke(main, ["prove", str(directory), "--select", "W708"])
     assert "rule GO/S1/1 of top reports DONE" in out.output
     line = next(x for x in out.output.splitlines() if "rule GO/S1/1 of top reports DONE" in x)
-    assert "is violated" in line and "replayed in the generated code, 4 cycle(s)" in line, line
+    assert "is violated" in line and "replayed in the generated code, 4 cycles" in line, line
 
 
 def test_a_count_no_run_reaches_makes_the_finding_undecided_with_why(tmp_path):

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+from rcsgen.compiler.diagnostics import counted
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove import prove_front
 from rcsgen.tools.replay import replay_all
@@ -147,7 +148,7 @@ def test_an_operators_answer_is_replayed_on_its_channel(desk) -> None:
     assert "after op reported ERROR" in finding.message
     assert (finding.verdict, finding.replay) == (
         "violated",
-        f"replayed in the generated code, {len(finding.trace)} cycle(s)",
+        f"replayed in the generated code, {counted(len(finding.trace), 'cycle')}",
     )
     data = yaml.safe_load(Path(finding.scenario).read_text(encoding="utf-8"))
     replies = [e["reply"] for e in data["events"] if "reply" in e]

@@ -116,7 +116,7 @@ def test_a_wait_on_what_only_an_idle_subordinate_writes_is_w703_word_for_word(
         "  cycle 2: sub answers DONE | top waits -> S1 EXECUTING  [world.ready=False]\n"
         "  handshake: the handshake invariant holds for unbounded command numbers (z3, by "
         "induction)\n"
-        "0 error(s), 3 warning(s)\n"
+        "0 errors, 3 warnings\n"
         "proven: tiny\n"
     )
 

@@ -144,9 +144,9 @@ def test_statistics_count_per_code_most_frequent_first_right_aligned() -> None:
 @pytest.mark.parametrize(
     ("outcome", "said"),
     [
-        (Outcome(2, 1, 3, True), "2 error(s), 1 warning(s) (3 acknowledged)"),
-        (Outcome(0, 4, 0, False), "0 error(s), 4 warning(s)"),
-        (Outcome(1, 0, 0, True), "1 error(s), 0 warning(s)"),
+        (Outcome(2, 1, 3, True), "2 errors, 1 warning (3 acknowledged)"),
+        (Outcome(0, 4, 0, False), "0 errors, 4 warnings"),
+        (Outcome(1, 0, 0, True), "1 error, 0 warnings"),
         (Outcome(0, 0, 3, False), ""),  # nothing found: nothing said, acknowledged or not
     ],
 )

@@ -236,14 +236,14 @@ def test_coverage_text_and_json_give_each_modules_counts(miner) -> None:
     lines = text.splitlines()
     total = len(result.rules)
     assert lines[0] == (
-        f"rule coverage of miner over 1 trace(s): {result.fired} of {total} table rules fired "
+        f"rule coverage of miner over 1 trace: {result.fired} of {total} table rules fired "
         f"({100 * result.fired / total:.1f}%)"
     )
     assert lines[1] == "" and lines[2] == "module   rules fired         ran in"
     cd = [r for r in result.rules if r.module == "cd"]
     fired = sum(1 for r in cd if r.cycles)
     shown = f"{100 * fired / len(cd):.1f}%"
-    assert f"cd       {len(cd):>5} {fired:>5} {shown:>6}  1 trace(s)" in lines
+    assert f"cd       {len(cd):>5} {fired:>5} {shown:>6}  1 trace" in lines
     assert text.endswith("\n") and lines[lines.index("never fired:") - 1] == ""
     sec = lines.index("  sec", lines.index("never fired:"))
     where = {(r.module, r.rule): r.where for r in result.rules}

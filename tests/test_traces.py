@@ -217,7 +217,7 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
     assert rules[("cr_sim", "SUMP/S0/1")].traces == [str(GOLDEN / "cr_simulated.jsonl")]
     assert result.ran["cr"] == [str(p) for p in MINER_GOLDEN if "cr_sim" not in p.name]
     text = coverage.to_text(result)
-    assert text.startswith(f"rule coverage of miner over 11 trace(s): {result.fired} of ")
+    assert text.startswith(f"rule coverage of miner over 11 traces: {result.fired} of ")
     assert "  co\n    INITIAL_APPROACH_FACE/S1/2      " in text
     data = json.loads(coverage.to_json(result))
     assert data["fired"] == result.fired and data["rules"] == len(result.rules)
@@ -286,12 +286,12 @@ def test_coverage_text_says_what_never_fired_and_where_each_module_spent_its_cyc
     that never fired per module (a module that missed none left out), the states most
     cycles first (ties by name), a module without a known period at 0 s."""
     assert coverage.to_text(made_up_coverage()) == (
-        "rule coverage of made over 2 trace(s): 2 of 4 table rules fired (50.0%)\n"
+        "rule coverage of made over 2 traces: 2 of 4 table rules fired (50.0%)\n"
         "\n"
         "module   rules fired         ran in\n"
         "a            1     0   0.0%  no trace\n"
-        "b            1     1 100.0%  2 trace(s)\n"
-        "c            2     1  50.0%  1 trace(s)\n"
+        "b            1     1 100.0%  2 traces\n"
+        "c            2     1  50.0%  1 trace\n"
         "\n"
         "never fired:\n"
         "  a  (not run by any trace)\n"
@@ -308,7 +308,7 @@ def test_coverage_text_says_what_never_fired_and_where_each_module_spent_its_cyc
         "    GO/S0        4      0.0 s  100.0%\n"
     )
     empty = coverage.to_text(coverage.Coverage("none", [], [], {}))
-    assert empty.startswith("rule coverage of none over 0 trace(s): 0 of 0 table rules fired (-)\n")
+    assert empty.startswith("rule coverage of none over 0 traces: 0 of 0 table rules fired (-)\n")
 
 
 def test_coverage_json_holds_each_modules_rules_and_seconds_per_state() -> None:

@@ -21,6 +21,7 @@ import subprocess
 import textwrap
 from dataclasses import dataclass
 
+from ..compiler.diagnostics import counted
 from ..compiler.ir import (
     IRAction,
     IRCall,
@@ -337,7 +338,7 @@ def execution_order(system: IRSystem, process: IRProcess, module: str | None = N
         edges.append(Edge(f"x{c1}_{a}", f"x{c2}_{b}", (label,), kind))
     title = (
         f"{system.name} {process.name}: a command's round trip {' > '.join(chain)} and back, "
-        f"{cycles} cycle(s)"
+        f"{counted(cycles, 'cycle')}"
     )
     name = f"{system.name}_{process.name}_order"
     return Graph(name, title, "TB", tuple(nodes), tuple(edges), tuple(clusters))

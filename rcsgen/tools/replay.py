@@ -21,6 +21,7 @@ from typing import Any
 import yaml
 
 from ..compiler import ir
+from ..compiler.diagnostics import counted
 from ..compiler.frontend import real_path
 from ..compiler.prove import Finding, SystemProof
 from ..compiler.types import Bool, Str, Type
@@ -179,7 +180,7 @@ class Replayer:
             return False, f"the replay stopped: {type(error).__name__}: {error}"
         finally:
             harness.close()
-        return True, f"replayed in the generated code, {len(finding.trace)} cycle(s)"
+        return True, f"replayed in the generated code, {counted(len(finding.trace), 'cycle')}"
 
 
 def replay_all(

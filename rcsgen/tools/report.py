@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from ..compiler.codes import CODES, WARNING_CODES, Severity
-from ..compiler.diagnostics import Diagnostic, Diagnostics, to_json
+from ..compiler.diagnostics import Diagnostic, Diagnostics, counted, to_json
 
 FORMATS = ("text", "json", "sarif", "github")
 __all__ = ["FORMATS", "Options", "Outcome", "to_json", "to_sarif", "to_github"]
@@ -125,10 +125,10 @@ def render_text(
 
 
 def summary(result: Outcome) -> str:
-    """`2 error(s), 1 warning(s)`, and how many acknowledged; '' when nothing was found."""
+    """`2 errors, 1 warning`, and how many acknowledged; '' when nothing was found."""
     if not (result.errors or result.warnings):
         return ""
-    text = f"{result.errors} error(s), {result.warnings} warning(s)"
+    text = f"{counted(result.errors, 'error')}, {counted(result.warnings, 'warning')}"
     return text + (f" ({result.acknowledged} acknowledged)" if result.acknowledged else "")
 
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import ast
 import re
 
-from ..diagnostics import Diagnostics, Span, did_you_mean
+from ..diagnostics import Diagnostics, Span, counted, did_you_mean
 from ..expressions.nodes import STATUS_NAMES
 from ..expressions.resolve import _parse, char_at
 from ..front_end.model import ControllerSpec, Located, SystemSpec, UserProperty
@@ -312,7 +312,7 @@ def _one(
             whenever = _expression(reader, prop.whenever)
             then = _expression(reader, prop.then)
             text = f"whenever {prop.whenever.value}, " + (
-                f"within {within} cycle(s) {prop.then.value}"
+                f"within {counted(within, 'cycle')} {prop.then.value}"
                 if within
                 else f"in the same cycle {prop.then.value}"
             )

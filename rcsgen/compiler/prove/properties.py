@@ -12,7 +12,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from ..diagnostics import Span
+from ..diagnostics import Span, counted
 from .adapter import DONE, ERROR, EXECUTING, RuleView, Skeleton
 from .model import NOP, Edge, Graph, State
 
@@ -215,7 +215,7 @@ def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> lis
                     span,
                     f"no motion after ERROR is violated: after {failed} reported ERROR, "
                     f"rule {rule_id} of {sk.name} still {_did(bad[0])}, "
-                    f"{len(trace)} cycle(s) into the command",
+                    f"{counted(len(trace), 'cycle')} into the command",
                     f"handle {failed}.status == ERROR in every state that waits on it "
                     "(send HALT or report ERROR)",
                     trace,
@@ -329,7 +329,8 @@ def _stuck(graph: Graph, command: str, where: list[State]) -> Finding:
         first.state,
         None,
         span,
-        f"{message}; {len(where)} state(s) of the model never finish",
+        f"{message}; {counted(len(where), 'state')} of the model never "
+        + ("finishes" if len(where) == 1 else "finish"),
         "add a rule for that case (for a subordinate's ERROR: send HALT, report ERROR)",
         trace,
         _certain(trace),

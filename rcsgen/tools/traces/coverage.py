@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
+from ...compiler.diagnostics import counted
 from ...compiler.ir import IRSystem
 from .read import Trace, check_against, runs_as
 
@@ -91,7 +92,7 @@ def to_text(coverage: Coverage) -> str:
     """A summary line, a table per module, then every rule that never fired with its guard."""
     total = len(coverage.rules)
     out = [
-        f"rule coverage of {coverage.system} over {len(coverage.traces)} trace(s): "
+        f"rule coverage of {coverage.system} over {counted(len(coverage.traces), 'trace')}: "
         f"{coverage.fired} of {total} table rules fired ({_percent(coverage.fired, total)})",
         "",
         f"{'module':<8} {'rules':>5} {'fired':>5} {'':>6}  ran in",
@@ -100,7 +101,7 @@ def to_text(coverage: Coverage) -> str:
         rules = [r for r in coverage.rules if r.module == module]
         fired = sum(1 for r in rules if r.cycles)
         ran = len(coverage.ran[module])
-        where = f"{ran} trace(s)" if ran else "no trace"
+        where = counted(ran, "trace") if ran else "no trace"
         out.append(
             f"{module:<8} {len(rules):>5} {fired:>5} {_percent(fired, len(rules)):>6}  {where}"
         )
