@@ -629,6 +629,8 @@ class IRProcess:
     watchdog: dict[str, float] = field(default_factory=dict)
     io: tuple[str, ...] = ()  # the I/O devices it runs (read first, written last)
     realtime: dict[str, object] = field(default_factory=dict)  # rcs/realtime.py's settings
+    # module -> where the process lists it (`processes: p: modules:`): findings about order
+    module_spans: dict[str, Span] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

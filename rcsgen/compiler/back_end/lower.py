@@ -90,6 +90,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
             dict(p.watchdog),
             tuple(d.name for d in devices if d.process == p.name),
             dict(sorted(p.realtime.items())),
+            dict(p.module_spans),
         )
         for p in checked.processes
     )

@@ -118,8 +118,9 @@ def _process(
     }
     roots = tuple(m for m in modules if m not in ruled)
     period = p.cycle_period or system.cycle_period
+    spans = {a.value: a.span for a in p.modules}
     return CheckedProcess(
-        p.name, period, p.doc, modules, roots, replaces, dict(p.watchdog), dict(p.realtime)
+        p.name, period, p.doc, modules, roots, replaces, dict(p.watchdog), dict(p.realtime), spans
     )
 
 

@@ -346,6 +346,8 @@ class CheckedProcess:
     stand_ins: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
     watchdog: Mapping[str, float] = field(default_factory=dict)  # its declared limits
     realtime: Mapping[str, object] = field(default_factory=dict)  # its real-time settings
+    # module -> where the process lists it (`processes: p: modules:`): findings about order
+    module_spans: Mapping[str, Span] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -276,7 +276,8 @@ def _late_order(
     """HALT reach as fast as the process split allows: within one process a supervisor
     runs before its subordinates (command-first, docs/semantics.md section 9), so they read
     its HALT in the cycle it sends it. A subordinate placed before it reads the HALT a cycle
-    later, and so does every leaf below it: W704, at the supervisor."""
+    later, and so does every leaf below it: W704 of the supervisor, located where the
+    process lists the subordinate (the order to change)."""
     found = []
     for c in system.controllers:
         if c.is_operator or c.name not in place:
@@ -288,6 +289,7 @@ def _late_order(
             if place[s.name][0] != process:
                 continue
             sk = skeletons[c.name]
+            listed = next(p for p in system.processes if p.name == process).module_spans
             found.append(
                 Finding(
                     "W704",
@@ -295,7 +297,7 @@ def _late_order(
                     "HALT",
                     None,
                     None,
-                    sk.spans.get("HALT", next(iter(sk.spans.values()))),
+                    listed.get(s.name) or sk.spans.get("HALT", next(iter(sk.spans.values()))),
                     f"HALT reach is violated: {s.name} runs before its supervisor {c.name} in "
                     f"process {process}'s order (system.yaml), so it reads {c.name}'s HALT a "
                     "cycle later than the process split allows, and so does every leaf below it",

@@ -230,7 +230,10 @@ def _finding(graph: Graph, prop: IRProperty, trace: list[tuple[Edge, State]]) ->
     table = [r for r in edge.rules if not r.startswith("every_cycle")] or list(edge.rules)
     if (prop.whenever is None or prop.within == 0) and table:
         command, state, index, span = _rule_of(sk, table[-1])
-        detail = f"in cycle {len(trace)} rule {table[-1]} of {sk.name} breaks it"
+        rule = f"rule {table[-1]} of {sk.name}"
+        if command in sk.generated:  # written nowhere: at the property it breaks
+            span, rule = prop.span, f"{rule}, in rcsgen's default {command} table,"
+        detail = f"in cycle {len(trace)} {rule} breaks it"
     else:
         at = _trigger(graph, prop, trace)
         command, state, index, span = trace[at - 1][1].command, None, None, prop.span
