@@ -12,7 +12,12 @@ the ring), side by side with the one-process version.
    (`LaunchedHarness`, what `rcsgen run --processes` uses), against the same package with
    both processes' modules in this one process (`Harness`). Both run the nominal scenario
    (specs/miner/scenarios/sump_shear_cusp.yaml), the stop module's command sent again
-   each time it is done, as fast as they can (no pacing).
+   each time it is done, as fast as they can (no pacing). And the one-process version
+   again, asleep (`time.sleep(SLEEP)`, untimed) before each cycle, as a ring member
+   sleeps while the others run: what a cycle costs a process that slept (its caches
+   taken by whatever ran meanwhile), with no hand-off at all. That cost, and the bare
+   hand-offs below, are the floor of lockstep on this machine: no ring in which a
+   member sleeps between its turns does better.
 2. A synthetic chain (bench/synthetic.py, fan-out 1) of 16 controllers split over 1, 2, 4
    and 8 processes, its root sent RUN again each time it is done, in lockstep, against the
    same chain in one process.
@@ -44,6 +49,7 @@ get a CPU at once, to see what the design gives on free cores.
 from __future__ import annotations
 
 import argparse
+import ctypes
 import gc
 import itertools
 import os
@@ -60,6 +66,7 @@ from common import ROOT, wall_ns, write_json
 from rcsgen.tools import scenario as scenarios
 from rcsgen.tools.harness import Harness, LaunchedHarness, generate
 
+LIBC = ctypes.CDLL(None, use_errno=True)
 DEDICATED = False  # --dedicated: the rings spin whatever the load (ring.Load)
 SCENARIO = ROOT / "specs" / "miner" / "scenarios" / "sump_shear_cusp.yaml"
 PACKAGE = ROOT / "generated" / "miner"
@@ -68,6 +75,11 @@ SPLITS = (1, 2, 4, 8)  # processes the chain is split over
 CYCLES = 2_000  # system cycles per version and round
 ROUNDS = 3
 CHUNK = 100
+SLEEP = 30e-6  # the one-process version's sleep before each cycle ("slept"), with the
+# thread's timer slack at 1 ns meanwhile (an ordinary thread's 50 µs would come on top):
+# about as long as pc1 waits for its turn in the two-process miner's ring (the rest of the
+# system cycle), or less; what each sleep took is measured
+PR_SET_TIMERSLACK, PR_GET_TIMERSLACK = 29, 30
 
 
 class Driver:
@@ -76,6 +88,8 @@ class Driver:
 
     def __init__(self, events: list[scenarios.Event], stop: str) -> None:
         self.events, self.stop = events, stop
+        self.sleep = 0.0  # seconds asleep before each cycle, untimed (race's `sleeps`)
+        self.slept: list[int] = []  # with `sleep`: how long each sleep took (ns)
         self.pending: list[tuple[int, scenarios.Event]] = [(e.cycle, e) for e in events]
         self.cycle = 0
         self.restarts = 0
@@ -84,6 +98,13 @@ class Driver:
         """What happens before cycle `self.cycle + 1`."""
         while self.pending and self.pending[0][0] <= self.cycle + 1:
             apply(harness, self.pending.pop(0)[1])
+        if self.sleep:  # last: the cycle timed next starts as a woken process's does
+            slack = LIBC.prctl(PR_GET_TIMERSLACK, 0, 0, 0, 0)
+            LIBC.prctl(PR_SET_TIMERSLACK, 1, 0, 0, 0)
+            began = wall_ns()
+            time.sleep(self.sleep)
+            self.slept.append(wall_ns() - began)
+            LIBC.prctl(PR_SET_TIMERSLACK, slack, 0, 0, 0)
 
     def after(self, harness) -> None:
         self.cycle += 1
@@ -120,14 +141,19 @@ def race(
     driver_of: Callable[[], Driver],
     cycles: int,
     rounds: int,
+    sleeps: dict[str, float] | None = None,
 ) -> dict[str, list[int]]:
     """Time every system cycle of each version: fresh versions each round, taking turns
-    every CHUNK cycles; checks that they end each round in the same state."""
+    every CHUNK cycles; checks that they end each round in the same state. `sleeps`: the
+    versions whose driver sleeps before each cycle, and how long (Driver.sleep); what the
+    sleeps took is under the key "<version> sleeps"."""
     samples: dict[str, list[int]] = {}
     for index in range(rounds):
         harnesses = open_versions()
         try:
             drivers = {key: driver_of() for key in harnesses}
+            for key, sleep in (sleeps or {}).items():
+                drivers[key].sleep = sleep
             keys = list(harnesses)
             gc.collect()
             for number, start in enumerate(range(0, cycles, CHUNK)):
@@ -142,6 +168,9 @@ def race(
                         step()
                         taken.append(wall_ns() - began)
                         driver.after(harness)
+            for key, driver in drivers.items():
+                if driver.slept:
+                    samples.setdefault(f"{key} sleeps", []).extend(driver.slept)
             ends = {key: state(harness) for key, harness in harnesses.items()}
             first, *others = ends.values()  # (a Status holds dicts: compared, not hashed)
             if any(other != first for other in others):
@@ -160,6 +189,7 @@ LAUNCHED: list[tuple[str, dict[str, bool], bool]] = [
     ("request/reply", {"ring": False}, False),
 ]
 _launches = itertools.count()
+SLEPT = "one process, slept"  # the miner's one-process version asleep before each cycle
 
 
 def launch(opened: dict[str, object], launched: Callable[..., object]) -> None:
@@ -192,6 +222,7 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
         opened: dict[str, object] = {"one process": one}
         where = (PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate)
         try:
+            opened[SLEPT] = scenarios.open_harness(scenario, PACKAGE)
             launch(opened, lambda **options: LaunchedHarness(*where, **options))
         except BaseException:
             for harness in opened.values():
@@ -202,11 +233,13 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
             processes[name] = sum(1 for m in one.layout.MODULES if placement.get(m) == name)
         return opened
 
-    samples = race(open_versions, lambda: Driver(events, stop), cycles, rounds)
+    samples = race(open_versions, lambda: Driver(events, stop), cycles, rounds, {SLEPT: SLEEP})
     return {
         "scenario": str(SCENARIO.relative_to(ROOT)),
         "processes": processes,
         "one_process_ns": stats(samples["one process"]),
+        "one_process_slept_ns": stats(samples[SLEPT]),
+        "sleep_ns": stats(samples[f"{SLEPT} sleeps"]),
         "processes_ns": stats(samples["processes"]),
         "eventfd_ring_ns": stats(samples["eventfd ring"]),
         "request_reply_ns": stats(samples["request/reply"]),

@@ -316,10 +316,17 @@ def section_targets(
             f"{c['processes']}: {ns(c['processes_ns']['median'] - c['one_process_ns']['median'])}"
             for c in lockstep["chain"]
         )
+        floor = lockstep_floor(lockstep)
         add(
             extra <= LOCKSTEP_EXTRA_MAX_NS,
             f"lockstep (token ring) costs the two-process miner ≤ "
-            f"{ns(LOCKSTEP_EXTRA_MAX_NS)} a system cycle: {ns(extra)}",
+            f"{ns(LOCKSTEP_EXTRA_MAX_NS)} a system cycle: {ns(extra)}"
+            + (
+                f" (this machine's floor in the same run: {ns(floor[0] + floor[1])}, a cold "
+                f"start {ns(floor[0])} and the bare hand-offs {ns(floor[1])}; section 6)"
+                if floor
+                else ""
+            ),
         )
         measured += [
             f"lockstep cost of the two-process miner: {ns(extra)} more per system cycle than "
@@ -760,6 +767,7 @@ def section_lockstep(lockstep: dict) -> list[str]:
         f"| {ns(many['mean'])} | {ns(many['p90'])} |",
         f"| **extra per system cycle** | **{ns(many['median'] - one['median'])}** "
         f"| {ns(many['mean'] - one['mean'])} | |",
+        *_slept_rows(one, m),
         *_request_reply_rows(one, m.get("eventfd_ring_ns"), "the ring without its page"),
         *_request_reply_rows(one, m.get("request_reply_ns")),
         "",
@@ -801,8 +809,59 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "ring.",
         "",
         *_handoff_rows(lockstep),
+        *_floor_lines(lockstep),
     ]
     return lines
+
+
+def lockstep_floor(lockstep: dict) -> tuple[float, float] | None:
+    """The two-process miner's lockstep floor on this machine, from one run: the cold start
+    (the one-process miner asleep before each cycle, less awake) and the bare hand-offs of
+    as many members as the miner has processes (the launcher's ring, turn words); None
+    where the run has not both."""
+    m = lockstep.get("miner", {})
+    slept = m.get("one_process_slept_ns")
+    bare = [
+        h["turn_word_ns"]
+        for h in lockstep.get("handoff", [])
+        if h["processes"] == len(m.get("processes", ())) and "turn_word_ns" in h
+    ]
+    if not slept or not bare:
+        return None
+    return slept["median"] - m["one_process_ns"]["median"], bare[0]["median"]
+
+
+def _slept_rows(one: dict, m: dict) -> list[str]:
+    slept = m.get("one_process_slept_ns")
+    if not slept:
+        return []
+    return [
+        f"| one process, asleep {ns(m['sleep_ns']['median'])} (median) before each cycle "
+        f"| {ns(slept['median'])} | {ns(slept['mean'])} | {ns(slept['p90'])} |",
+        # (medians only: a mean is mostly the cycles in which the process was descheduled)
+        f"| cold start per system cycle, no hand-off (asleep less awake) "
+        f"| {ns(slept['median'] - one['median'])} | | |",
+    ]
+
+
+def _floor_lines(lockstep: dict) -> list[str]:
+    floor = lockstep_floor(lockstep)
+    if not floor:
+        return []
+    cold, bare = floor
+    m = lockstep["miner"]
+    extra = m["processes_ns"]["median"] - m["one_process_ns"]["median"]
+    return [
+        f"The floor of lockstep on this machine, for the two-process miner: a process that "
+        f"sleeps between its cycles starts each on a cold cache ({ns(cold)} a system cycle "
+        f"in one process asleep as long as a ring member waits, with no hand-off at all), "
+        f"and {len(m['processes']) + 1} hand-offs cost at least what the bare ring of "
+        f"{len(m['processes'])} members costs ({ns(bare)}): {ns(cold + bare)} together, "
+        f"against the ring's {ns(extra)} in the same run. Only members that do not sleep "
+        "(a core each to spin on) go under it; on a machine busy with other work nobody "
+        'may spin (docs/decisions.md, "The lockstep floor").',
+        "",
+    ]
 
 
 def _handoff_rows(lockstep: dict) -> list[str]:
@@ -1364,25 +1423,36 @@ _VERDICT = ("- **PASS** ", "- **FAIL** ")
 
 
 def _target(line: str) -> str | None:
-    """What a Targets line measures (its text up to the colon before the figure), or None."""
-    if not line.startswith(_VERDICT):
-        return None
-    return line[len(_VERDICT[0]) :].split(": ")[0]
+    """What a Targets line measures (its text up to the colon before the figure): a
+    target's, or a figure's measured with no target (a "- " line without a verdict);
+    None for any other line."""
+    if line.startswith(_VERDICT):
+        return line[len(_VERDICT[0]) :].split(": ")[0]
+    if line.startswith("- "):
+        return "measured " + line[2:].split(": ")[0]
+    return None
 
 
 def refresh_targets(old: str, new: str, stamp: str) -> str:
     """The full run's Targets section with the lines a subset's run measured again put in
-    its place, each marked with `stamp`; the lines of the parts not run stay as they were."""
+    its place, each marked with `stamp`: its targets and its figures with no target; the
+    lines of the parts not run stay as they were."""
     fresh = {key: line for line in new.splitlines() if (key := _target(line)) is not None}
     out = []
     for line in old.splitlines():
         key = _target(line)
         out.append(f"{fresh.pop(key)} {stamp}" if key in fresh else line)
-    if fresh:  # targets the full run did not report: after the others
+    for line in fresh.values():  # what the full run did not report: after its own kind
+        verdict = line.startswith(_VERDICT)
         last = max(
-            (i for i, line in enumerate(out) if _target(line) is not None), default=len(out) - 1
+            (
+                i
+                for i, was in enumerate(out)
+                if _target(was) and (not verdict or was.startswith(_VERDICT))
+            ),
+            default=len(out) - 1,
         )
-        out[last + 1 : last + 1] = [f"{line} {stamp}" for line in fresh.values()]
+        out.insert(last + 1, f"{line} {stamp}")
     return "\n".join(out).rstrip() + "\n"
 
 

@@ -272,6 +272,34 @@ def test_a_token_is_a_turn_word_and_its_doorbell_is_read_spun_or_slept(
     assert not receiver.wait()
 
 
+def test_a_sleeping_taker_takes_only_the_token_alone_on_the_spot(
+    links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A taker that may not spin (no core free for it) takes the token as its doorbell's
+    read returns; what else the read may return is still told apart: a nudge (its
+    predecessor saw a core free) is no token but a spin for it, a stop with the token a
+    stop, two tokens a broken ring."""
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: False)
+    receiver = ring.Receiver(links[0].read, 1e-3, page, 0)
+    give = ring.Giver(links[0].write, page, 0)
+    give()
+    assert receiver.wait()  # the token alone
+    os.write(links[0].write, ring.WAKE)
+    threading.Timer(0.05, give).start()
+    assert receiver.wait()  # the nudge woke it; the token came after its spin
+    assert _word(page, 0, ring.NUDGED) == 0 and _pending(links[0].read) == 0
+    os.set_blocking(links[0].read, True)
+    give()
+    os.write(links[0].write, ring.STOP)
+    assert not receiver.wait()
+    receiver.taker.taken = _word(page, 0, ring.TURN)
+    page.words[ring.STOPPED] = 0
+    give()
+    give()
+    assert not receiver.wait()  # two tokens: the ring is broken
+    receiver.close()
+
+
 def test_a_nudge_that_finds_its_taker_spinning_keeps_it_spinning(
     links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
 ) -> None:

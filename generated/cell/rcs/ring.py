@@ -312,37 +312,63 @@ class Taker:
     def take(self) -> tuple[int, bool]:
         """(the turn word, stopped): the word once a token's doorbell is read (the
         caller's to check: one more than it took is the token, more is a broken ring; 0
-        where none came), stopped when told to (STOPPED, or STOP in the eventfd)."""
-        words, at, want = self.words, self.at, self.taken + 1
+        where none came), stopped when told to (STOPPED, or STOP in the eventfd).
+        Where it does not spin (a busy machine, a paced ring) the wait is the read, and
+        the one token alone, not told to stop, is taken on the spot: on a busy machine
+        every hand-off comes this way, and the taker has just woken on a cold cache,
+        where each line of Python touched costs."""
+        words, at = self.words, self.at
         spin = self.budget()
+        if spin or words[at + STOPPED]:
+            return self._wait(spin, None)
+        data = os.read(self.fd, WORD.size)
+        if data == TOKEN and not words[at + STOPPED]:
+            if words[at + NUDGED]:  # a nudge that found it asleep: spent with this token
+                words[at + NUDGED] = 0
+            return int(words[at]), False
+        return self._wait(0, data)
+
+    def _wait(self, spin: int, data: bytes | None) -> tuple[int, bool]:
+        """`take`'s general case: a spin of `spin` ns first, or the doorbell's `data`
+        that `take` read already (a stop, a nudge, more than one token); a nudge alone
+        makes it spin for the token."""
+        words, at, want = self.words, self.at, self.taken + 1
         began = start = time.monotonic_ns() if spin else 0  # how long waits take: spinning
         nudged = False
         while True:
-            if spin and words[at] < want:
-                end = began + spin
-                words[at + SPINNING] = 1
-                while words[at] < want and not words[at + STOPPED]:
-                    if time.monotonic_ns() >= end:
-                        if nudged or not words[at + NUDGED]:
-                            break
-                        # nudged as it spun (no doorbell then): spin on for the token
-                        nudged, end = True, time.monotonic_ns() + self.spin_ns
-                    os.sched_yield()
-                words[at + SPINNING] = 0
-            if words[at + STOPPED] and words[at] < want:
-                return 0, True
-            data = os.read(self.fd, WORD.size)  # the doorbell (a µs away after a spin)
+            if data is None:
+                if spin and words[at] < want:
+                    nudged = self._spin(want, began + spin, nudged)
+                if words[at + STOPPED] and words[at] < want:
+                    return 0, True
+                data = os.read(self.fd, WORD.size)  # the doorbell (a µs away after a spin)
             value = WORD.unpack(data)[0] if len(data) == WORD.size else STOP_VALUE
             if value & TOKEN_MASK or value >= STOP_VALUE:
                 break
             spin, began = self.spin_ns, time.monotonic_ns()  # a nudge: the token is near
-            nudged = True
+            nudged, data = True, None
         if value & TOKEN_MASK:
             words[at + NUDGED] = 0  # this cycle's nudge is spent
         if start:
             self.recent = (3 * self.recent + time.monotonic_ns() - start) // 4
         stopped = value >= STOP_VALUE or bool(words[at + STOPPED])
         return (int(words[at]) if value & TOKEN_MASK else 0), stopped
+
+    def _spin(self, want: int, end: int, nudged: bool) -> bool:
+        """Spin on the turn word until the token `want` or a stop, or until `end` (ns):
+        on for a nudged budget where nudged meanwhile and not before (no doorbell then);
+        whether it was nudged."""
+        words, at = self.words, self.at
+        words[at + SPINNING] = 1
+        while words[at] < want and not words[at + STOPPED]:
+            if time.monotonic_ns() >= end:
+                if nudged or not words[at + NUDGED]:
+                    break
+                # nudged as it spun (no doorbell then): spin on for the token
+                nudged, end = True, time.monotonic_ns() + self.spin_ns
+            os.sched_yield()
+        words[at + SPINNING] = 0
+        return nudged
 
     def close(self) -> None:
         if self.load is not None:
