@@ -15,6 +15,10 @@ reply from Zenoh's callback thread to its waiting thread (as a node's `wait` doe
   through a `queue.SimpleQueue` (the runtime's inbox), which answers: one wake-up more;
 - `bare-event`: as `bare-queue` but both waiting threads are woken through a
   `threading.Event` (a Python Condition: lock + notify) instead of the SimpleQueue;
+- `bare-mirror`: `bare-queue` with the runtime's Python on the payload at both ends, not
+  its transport: the record written, `Mirror.changed` and `pack` before each put, `unpack`
+  and `apply` after each get and the record read (the echo: the command read, the status
+  written and sent);
 - `runtime`: the runtime's `ZenohTransport` at both ends (bench_zenoh's hop: the echo
   waits in `wait`, pulls, answers, pushes; zenoh_hop_callback.py's `wait`);
 - `runtime-cb`: the runtime at both ends, the echo's callback thread applying the push and
@@ -53,9 +57,17 @@ from miner.rcs import zenoh_transport as zt  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import zenoh_hop_callback  # noqa: E402
 
-COMMAND = layout.COMMAND_IN["pp"]
+COMMAND, STATUS = layout.COMMAND_IN["pp"], layout.STATUS_OUT["pp"]
 RUNTIME_MODES = {"runtime": "wait", "runtime-cb": "callback"}
-VARIANTS = ("bare-cb", "bare-direct", "bare-queue", "bare-event", "runtime", "runtime-cb")
+VARIANTS = (
+    "bare-cb",
+    "bare-direct",
+    "bare-queue",
+    "bare-event",
+    "bare-mirror",
+    "runtime",
+    "runtime-cb",
+)
 WARM = 50
 END = b"end"  # the echo's last message: it leaves
 
@@ -138,9 +150,35 @@ def bare_echo(variant: str, where: str) -> None:
     else:
         waker = Waker("event" if variant == "bare-event" else "queue")
         session.declare_subscriber("b/ping", lambda s: waker.put(s.payload.to_bytes()))
+        mirror = Mirrored() if variant == "bare-mirror" else None
         while (data := waker.get()) != END:
+            if mirror is not None and data != b"hello":
+                number = mirror.take(data, COMMAND)["command_num"]
+                data = mirror.send(STATUS, status_num=number)
             pong.put(data)
     session.close()
+
+
+class Mirrored:
+    """The runtime's Python on a hop's payload, without its transport: a block and a
+    mirror; `send` writes a record and packs what changed, `take` applies a push and reads
+    a record."""
+
+    def __init__(self) -> None:
+        self.block = block_mod.Block(layout)
+        self.mirror = transport.Mirror(layout, self.block)
+        self.mirror.changed()
+        self.wanted = zt._matcher(transport.reads(layout, None, ()))
+
+    def send(self, record: Any, **values: Any) -> bytes:
+        record.write(self.block.buf, **values)
+        return bytes(self.mirror.pack(self.mirror.changed(slow=False)))
+
+    def take(self, data: bytes, record: Any) -> dict[str, Any]:
+        for key, message in self.mirror.unpack(data) or ():
+            if self.wanted(key):
+                self.mirror.apply(key, message)
+        return dict(record.read(self.block.buf))
 
 
 def bare_hops(variant: str, count: int, data: bytes) -> list[int]:
@@ -163,10 +201,19 @@ def bare_hops(variant: str, count: int, data: bytes) -> list[int]:
         time.sleep(0.3)  # the answers to the other hellos, then none
         while waker.get(0.0) is not None:
             pass
+        mirror = Mirrored() if variant == "bare-mirror" else None
         for number in range(count + WARM):
             began = time.perf_counter_ns()
-            ping.put(data)
-            waker.get()
+            if mirror is not None:
+                data = mirror.send(COMMAND, command_num=number + 1)
+                ping.put(data)
+                answer = waker.get()
+                assert answer is not None
+                if mirror.take(answer, STATUS)["status_num"] != number + 1:
+                    raise SystemExit(f"{variant}: not the echo of #{number + 1}")
+            else:
+                ping.put(data)
+                waker.get()
             if number >= WARM:
                 rtts.append(time.perf_counter_ns() - began)
         ping.put(END)
