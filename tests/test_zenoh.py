@@ -16,6 +16,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from types import ModuleType
 
@@ -357,6 +358,55 @@ def test_a_step_request_arrives_after_the_records_sent_before_it(miner: ModuleTy
 
 
 STEP_FIRST = __import__("struct").Struct("<cH")  # a step request's b"s" and first module
+
+
+def test_a_process_waiting_for_its_step_is_not_woken_by_pushes_and_applies_them_with_it(
+    miner: ModuleType,
+) -> None:
+    """A lockstep process waiting for its step (`eager` off, as `serve` sets it) is woken
+    by the step, not by each push of another node (a wake-up a push, and its CPU, on every
+    cycle): its `ready` is asked a few times (the 0.2 s stop checks), not once a push; what
+    the pushes carried is in its block, in order, when the step has come."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    process_block, observer_block = Block(layout), Block(layout)
+    process = zt.ZenohTransport(
+        transport.Mirror(layout, process_block, "pc2"),
+        zt.Options(listen=(endpoint,)),
+        "pc2",
+        ("pp",),
+        block_when_congested=True,
+    )
+    observer = zt.ZenohTransport(
+        transport.Mirror(layout, observer_block),
+        zt.Options(connect=(endpoint,)),
+        block_when_congested=True,
+    )
+    record, asked = layout.COMMAND_IN["pp"], []
+    names = list(layout.PROCESSES)
+
+    def stepped() -> bool:
+        asked.append(record.read(process_block.buf)["command_num"])
+        return bool(process.steps)
+
+    try:
+        assert process.wait(lambda: len(process.joined) == 2, 10.0)
+        assert observer.wait(lambda: len(observer.joined) == 2, 10.0)
+        process.eager = False
+        waiting = ThreadPoolExecutor(1).submit(process.wait, stepped, 10.0)
+        wait_for(lambda: bool(asked), "the process waiting", 10.0)
+        for number in range(1, 41):  # one at a time, while it waits (about 0.2 s)
+            record.write(observer_block.buf, command_num=number, command=3)
+            observer.push()
+            time.sleep(0.005)
+        observer.send_steps({"pc2": zt.step_request(0, 0, True, [0] * len(names))})
+        assert waiting.result(10.0)
+    finally:
+        observer.close()
+        process.close()
+    assert asked[-1] == 40, "every push applied, the last one last, with the step"
+    assert len(asked) < 10, f"woken {len(asked)} times for 40 pushes and a step"
 
 
 def test_a_malformed_step_request_is_counted_for_its_sender_and_never_run(

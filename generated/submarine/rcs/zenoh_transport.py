@@ -152,10 +152,14 @@ class ZenohTransport:
         self.prefix = prefix(layout)
         self.node = process if process is not None else f"_observer_{mirror.epoch:016x}"
         # What Zenoh's threads delivered, in order: a SimpleQueue (put and a timed get in C:
-        # no Python Condition on either side of the hand-off), and what `wait` took from it
-        # while blocking, for the next `pull`.
+        # no Python Condition on either side of the hand-off). What wakes a waiting node
+        # (`wait`, `hear`) is a token in `_bell`, put after each message that may let it go
+        # on: every message, but while `eager` is False (a lockstep process waiting for its
+        # step) not another node's push, which waits in the inbox to be applied with the
+        # step (one wake-up a cycle fewer for each other process's push).
         self.inbox: queue.SimpleQueue[tuple[str, str, bytes]] = queue.SimpleQueue()
-        self._taken: list[tuple[str, str, bytes]] = []
+        self._bell: queue.SimpleQueue[None] = queue.SimpleQueue()
+        self.eager = True
         self.steps: deque[bytes] = deque()
         self.lost: set[str] = set()
         self.joined: set[str] = set()
@@ -234,6 +238,8 @@ class ZenohTransport:
 
     def _arrived(self, kind: str, key: str, payload: bytes) -> None:
         self.inbox.put((kind, key, payload))
+        if self.eager or kind != "push":  # (the token after the message: see `pull`)
+            self._bell.put(None)
 
     def _token(self, sample: Any) -> None:
         parts = str(sample.key_expr).split("/")  # rcs, system, hash-8, _alive, node
@@ -249,9 +255,13 @@ class ZenohTransport:
     def pull(self) -> None:
         """Apply everything that arrived, in order: records into the block, step requests
         to `steps`, tokens to liveness (a lost process is marked DEAD)."""
-        arrived, self._taken = self._taken, []
-        inbox = self.inbox
-        while not inbox.empty():  # this thread is its only reader
+        bell, inbox, arrived = self._bell, self.inbox, []
+        # The tokens first, then the messages (this thread is the only reader of both): a
+        # token put after this is for a message taken now or later, so none is lost (at
+        # worst one wake-up finds nothing new).
+        while not bell.empty():
+            bell.get_nowait()
+        while not inbox.empty():
             arrived.append(inbox.get_nowait())
         mirror = self.mirror
         for kind, key, payload in arrived:
@@ -420,7 +430,7 @@ class ZenohTransport:
             beat()
             self.push()
             try:  # the next message wakes this thread at once; a stop within 0.1 s
-                self._taken.append(self.inbox.get(timeout=0.1))
+                self._bell.get(timeout=0.1)
             except queue.Empty:
                 pass
 
@@ -452,7 +462,7 @@ class ZenohTransport:
             if left is not None and left <= 0:
                 return False
             try:  # the next message wakes this thread at once (at most 0.2 s: a stop)
-                self._taken.append(self.inbox.get(timeout=0.2 if left is None else min(left, 0.2)))
+                self._bell.get(timeout=0.2 if left is None else min(left, 0.2))
             except queue.Empty:
                 pass
 
@@ -530,7 +540,10 @@ def serve(
     transport.push()  # the INITs to our roots, the first beat
     try:
         while not stop.requested:
-            if not transport.wait(lambda: bool(transport.steps) or stop.requested, None):
+            transport.eager = False  # until a step comes, another node's push can wait
+            stepped = transport.wait(lambda: bool(transport.steps) or stop.requested, None)
+            transport.eager = True
+            if not stepped:
                 continue
             if stop.requested:
                 break
