@@ -17,8 +17,10 @@ import sys
 import time
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import pytest
 from conftest import wait_for
@@ -309,32 +311,45 @@ def test_a_push_the_congested_network_dropped_is_repaired_within_the_refresh_int
         node.close()
 
 
+@contextmanager
+def lockstep_pair(miner: ModuleType, log: Any = None) -> Iterator[tuple[Any, Any]]:
+    """pc2's lockstep node and an observer's (a coordinator's) on loopback, each on a block
+    of its own, both joined; closed after."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    process = zt.ZenohTransport(
+        transport.Mirror(layout, Block(layout), "pc2"),
+        zt.Options(listen=(endpoint,)),
+        "pc2",
+        ("pp",),
+        block_when_congested=True,
+        log=log,
+    )
+    observer = zt.ZenohTransport(
+        transport.Mirror(layout, Block(layout)),
+        zt.Options(connect=(endpoint,)),
+        block_when_congested=True,
+    )
+    try:
+        assert process.wait(lambda: len(process.joined) == 2, 10.0)
+        assert observer.wait(lambda: len(observer.joined) == 2, 10.0)
+        yield process, observer
+    finally:
+        observer.close()
+        process.close()
+
+
 def test_a_step_request_arrives_after_the_records_sent_before_it(miner: ModuleType) -> None:
     """Lockstep relies on it: what a coordinator wrote (a scenario's command) must be in a
     process's block when the step it sends next arrives, though they come through two
     subscribers (zenoh-python would run each subscriber's callback in a thread of its own).
     A cycle's requests go as one message; each process takes its own out of it."""
-    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
-    Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    process_block, observer_block = Block(layout), Block(layout)
-    process = zt.ZenohTransport(
-        transport.Mirror(layout, process_block, "pc2"),
-        zt.Options(listen=(endpoint,)),
-        "pc2",
-        ("pp",),
-        block_when_congested=True,
-    )
-    observer = zt.ZenohTransport(
-        transport.Mirror(layout, observer_block),
-        zt.Options(connect=(endpoint,)),
-        block_when_congested=True,
-    )
+    layout, zt = rcs(miner, "layout"), rcs(miner, "rcs.zenoh_transport")
     record, seen, taken = layout.COMMAND_IN["pp"], [], []
     names = list(layout.PROCESSES)
-    try:
-        assert process.wait(lambda: len(process.joined) == 2, 10.0)
-        assert observer.wait(lambda: len(observer.joined) == 2, 10.0)
+    with lockstep_pair(miner) as (process, observer):
+        process_block, observer_block = process.mirror.block, observer.mirror.block
         for number in range(1, 301):
             record.write(observer_block.buf, command_num=number, command=3)
             observer.push()
@@ -349,9 +364,6 @@ def test_a_step_request_arrives_after_the_records_sent_before_it(miner: ModuleTy
             taken += process.steps
             process.steps.clear()
             seen.append(record.read(process_block.buf)["command_num"])
-    finally:
-        observer.close()
-        process.close()
     assert seen == list(range(1, 301))
     first = [STEP_FIRST.unpack_from(request, 0)[1] for request in taken]
     assert first == [names.index("pc2") + 1] * 300, "pc2's own request, once a message"
@@ -367,32 +379,16 @@ def test_a_process_waiting_for_its_step_is_not_woken_by_pushes_and_applies_them_
     by the step, not by each push of another node (a wake-up a push, and its CPU, on every
     cycle): its `ready` is asked a few times (the 0.2 s stop checks), not once a push; what
     the pushes carried is in its block, in order, when the step has come."""
-    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
-    Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    process_block, observer_block = Block(layout), Block(layout)
-    process = zt.ZenohTransport(
-        transport.Mirror(layout, process_block, "pc2"),
-        zt.Options(listen=(endpoint,)),
-        "pc2",
-        ("pp",),
-        block_when_congested=True,
-    )
-    observer = zt.ZenohTransport(
-        transport.Mirror(layout, observer_block),
-        zt.Options(connect=(endpoint,)),
-        block_when_congested=True,
-    )
+    layout, zt = rcs(miner, "layout"), rcs(miner, "rcs.zenoh_transport")
     record, asked = layout.COMMAND_IN["pp"], []
     names = list(layout.PROCESSES)
+    with lockstep_pair(miner) as (process, observer):
+        process_block, observer_block = process.mirror.block, observer.mirror.block
 
-    def stepped() -> bool:
-        asked.append(record.read(process_block.buf)["command_num"])
-        return bool(process.steps)
+        def stepped() -> bool:
+            asked.append(record.read(process_block.buf)["command_num"])
+            return bool(process.steps)
 
-    try:
-        assert process.wait(lambda: len(process.joined) == 2, 10.0)
-        assert observer.wait(lambda: len(observer.joined) == 2, 10.0)
         process.eager = False
         waiting = ThreadPoolExecutor(1).submit(process.wait, stepped, 10.0)
         wait_for(lambda: bool(asked), "the process waiting", 10.0)
@@ -402,9 +398,6 @@ def test_a_process_waiting_for_its_step_is_not_woken_by_pushes_and_applies_them_
             time.sleep(0.005)
         observer.send_steps({"pc2": zt.step_request(0, 0, True, [0] * len(names))})
         assert waiting.result(10.0)
-    finally:
-        observer.close()
-        process.close()
     assert asked[-1] == 40, "every push applied, the last one last, with the step"
     assert len(asked) < 10, f"woken {len(asked)} times for 40 pushes and a step"
 
@@ -417,36 +410,20 @@ def test_a_malformed_step_request_is_counted_for_its_sender_and_never_run(
     the node that sent it (`ctl status`'s counters), said in one line; a good one after it
     is taken."""
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
-    Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    zt = rcs(miner, "rcs.zenoh_transport")
     said: list[str] = []
-    process = zt.ZenohTransport(
-        transport.Mirror(layout, Block(layout), "pc2"),
-        zt.Options(listen=(endpoint,)),
-        "pc2",
-        ("pp",),
-        block_when_congested=True,
-        log=said.append,
-    )
     report: dict[str, int] = {}
-    process.report = report
-    observer = zt.ZenohTransport(
-        transport.Mirror(layout, Block(layout)), zt.Options(connect=(endpoint,))
-    )
-    names, sender = list(layout.PROCESSES), observer.node
+    names = list(layout.PROCESSES)
     good = zt.step_request(0, 0, True, [0] * len(names))
     index = names.index("pc2")
-    try:
-        assert process.wait(lambda: len(process.joined) == 2, 10.0)
+    with lockstep_pair(miner, said.append) as (process, observer):
+        process.report, sender = report, observer.node
         key = f"{zt.prefix(layout)}/{transport.STEP_KEY}/{sender}"
         for garbage in (zt.STEP_ENTRY.pack(index, len(good)) + good[:-1], b"\x01"):
             observer.session.put(key, garbage)
         assert process.wait(lambda: process.peers.get(sender, {}).get("malformed") == 2, 10.0)
         observer.send_steps({"pc2": good})
         assert process.wait(lambda: bool(process.steps), 10.0)
-    finally:
-        observer.close()
-        process.close()
     assert list(process.steps) == [good], "only the good request is taken"
     assert report["net_malformed"] == 2
     assert said == [
