@@ -4,7 +4,11 @@
    own block, over Zenoh; or attached to the same segment, polling) answers with pp's
    status; the round trip, halved. Zenoh: the runtime's own `ZenohTransport` on both
    sides (the receiver blocks until something arrives); shared memory: the echo polls the
-   record flat out, so its figure is the floor of a hop.
+   record flat out, so its figure is the floor of a hop. Beside them, Zenoh alone: the
+   same payload (one push of pp's command) between bare zenoh-python sessions configured
+   as a node is, each end's callback handing the sample to its waiting thread through a
+   queue as the runtime's does, and no rcsgen code: what the runtime adds is the
+   difference (bench/prototypes/zenoh_hop_ab.py takes it apart).
 2. Records per second one process sends (world fields, a push per round of the float
    fields, each push one Zenoh message; every push sent and none dropped, as in lockstep)
    and how many arrive.
@@ -26,7 +30,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import os
+import queue
 import shutil
 import signal
 import socket
@@ -73,8 +79,73 @@ def percentile(values: list[int], share: float) -> float:
 # ---------------------------------------------------------------- 1, 2: hop and rate
 
 
+BARE_END = b"end"  # the bare echo's last message: it leaves
+
+
+def bare_session(zt: ModuleType, options: object) -> tuple[object, queue.SimpleQueue[bytes]]:
+    """A zenoh-python session configured as a node is (`config_json`), and the queue its
+    subscriber's callback hands each sample to."""
+    import zenoh
+
+    config = zenoh.Config()
+    for key, value in zt.config_json(options).items():
+        config.insert_json5(key, json.dumps(value))
+    return zenoh.open(config), queue.SimpleQueue()
+
+
+def bare_echo(where: str) -> None:
+    """The far end of the bare hop: every message back as it came, until BARE_END."""
+    import zenoh
+
+    _, _, _, zt = modules(import_package(PACKAGE, HOOKS))
+    session, inbox = bare_session(zt, zt.Options(connect=(where,)))
+    block = zenoh.CongestionControl.BLOCK
+    pong = session.declare_publisher("bench/pong", congestion_control=block)
+    session.declare_subscriber("bench/ping", lambda sample: inbox.put(sample.payload.to_bytes()))
+    while (data := inbox.get(timeout=60)) != BARE_END:
+        pong.put(data)
+    session.close()
+
+
+def bare_round_trips(zt: ModuleType, where: str, data: bytes, count: int) -> list[int]:
+    """The bare hop's round trips (`count` after 50 to warm up), once the echo answers."""
+    import zenoh
+
+    session, inbox = bare_session(zt, zt.Options(listen=(where,)))
+    block = zenoh.CongestionControl.BLOCK
+    session.declare_subscriber("bench/pong", lambda sample: inbox.put(sample.payload.to_bytes()))
+    ping = session.declare_publisher("bench/ping", congestion_control=block)
+    try:
+        for _ in range(150):  # until the echo is connected and answers (30 s at most)
+            ping.put(b"hello")
+            try:
+                inbox.get(timeout=0.2)
+                break
+            except queue.Empty:
+                pass
+        else:
+            raise SystemExit("zenoh alone: the echo did not answer within 30 s")
+        time.sleep(0.3)  # the answers to the other hellos, then none
+        while not inbox.empty():
+            inbox.get_nowait()
+        rtts = []
+        for number in range(count + 50):
+            began = time.perf_counter_ns()
+            ping.put(data)
+            inbox.get(timeout=10.0)
+            if number >= 50:
+                rtts.append(time.perf_counter_ns() - began)
+        ping.put(BARE_END)
+    finally:
+        session.close()
+    return rtts
+
+
 def echo(kind: str, where: str, count: int) -> None:
     """The far end: answer each new pp command with pp's status (status_num = its number)."""
+    if kind == "bare":
+        bare_echo(where)
+        return
     layout, block_mod, transport, zt = modules(import_package(PACKAGE, HOOKS))
     command, status = layout.COMMAND_IN["pp"], layout.STATUS_OUT["pp"]
     if kind == "shm":
@@ -118,7 +189,24 @@ def hops(count: int) -> dict[str, dict[str, float]]:
     command, status = layout.COMMAND_IN["pp"], layout.STATUS_OUT["pp"]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(HOOKS), *sys.path])}
     results = {}
-    for kind in ("shm", "zenoh"):
+    for kind in ("shm", "bare", "zenoh"):
+        if kind == "bare":
+            where = f"tcp/127.0.0.1:{free_port()}"
+            child = subprocess.Popen(
+                [sys.executable, __file__, "--echo", kind, where, "0"], env=env
+            )
+            try:
+                rtts = bare_round_trips(
+                    zt, where, bare_payload(layout, block_mod, transport), count
+                )
+                child.wait(30)
+            finally:
+                if child.poll() is None:
+                    child.kill()
+                    child.wait()
+            results[kind] = summary(rtts)
+            print("hop over zenoh alone done", file=sys.stderr)
+            continue
         if kind == "shm":
             where = f"rcsgen_bench_zenoh_{os.getpid()}"
             block = block_mod.Block(layout, where, create=True)
@@ -162,13 +250,30 @@ def hops(count: int) -> dict[str, dict[str, float]]:
             if net is not None:
                 net.close()
             block.close()
-        results[kind] = {
-            "median_ns": statistics.median(rtts) / 2,
-            "p99_ns": percentile(rtts, 0.99) / 2,
-            "round_trips": len(rtts),
-        }
+        results[kind] = summary(rtts)
         print(f"hop over {kind} done", file=sys.stderr)
     return results
+
+
+def summary(rtts: list[int]) -> dict[str, float]:
+    """A hop's figures from its round trips: each halved."""
+    return {
+        "median_ns": statistics.median(rtts) / 2,
+        "p99_ns": percentile(rtts, 0.99) / 2,
+        "round_trips": len(rtts),
+    }
+
+
+def bare_payload(layout: ModuleType, block_mod: ModuleType, transport: ModuleType) -> bytes:
+    """What the runtime's hop carries: one push of pp's command, as `Mirror.pack` makes it."""
+    block = block_mod.Block(layout)
+    try:
+        mirror = transport.Mirror(layout, block)
+        mirror.changed()  # the records as a block starts: not this push
+        layout.COMMAND_IN["pp"].write(block.buf, command_num=1)
+        return bytes(mirror.pack(mirror.changed(slow=False)))
+    finally:
+        block.close()
 
 
 def rate(messages: int) -> dict[str, float]:

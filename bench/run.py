@@ -1017,13 +1017,20 @@ def section_zenoh(z: dict) -> list[str]:
         )
         lines += [
             "One buffer hop (a round trip through an echo process, halved; shared memory: "
-            "the echo polls flat out, Zenoh: the runtime's transport, the receiver waiting):",
+            "the echo polls flat out, Zenoh: the runtime's transport, the receiver waiting; "
+            "Zenoh alone: the same payload and threads between bare zenoh-python sessions, "
+            "no rcsgen code):",
             "",
             "| | median | 99th percentile |",
             "|---|--:|--:|",
             *(
                 f"| {name} | {ns(h[key]['median_ns'])} | {ns(h[key]['p99_ns'])} |"
-                for key, name in (("shm", "shared memory"), ("zenoh", "Zenoh"))
+                for key, name in (
+                    ("shm", "shared memory"),
+                    ("bare", "Zenoh alone"),
+                    ("zenoh", "Zenoh, the runtime's transport"),
+                )
+                if key in h
             ),
             "",
             f"- {'PASS' if hop_ok else 'FAIL'}: a Zenoh hop {ns(h['zenoh']['median_ns'])} "

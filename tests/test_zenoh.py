@@ -16,8 +16,11 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import pytest
 from conftest import wait_for
@@ -308,41 +311,126 @@ def test_a_push_the_congested_network_dropped_is_repaired_within_the_refresh_int
         node.close()
 
 
-def test_a_step_request_arrives_after_the_records_sent_before_it(miner: ModuleType) -> None:
-    """Lockstep relies on it: what a coordinator wrote (a scenario's command) must be in a
-    process's block when the step it sends next arrives, though they come through two
-    subscribers (zenoh-python would run each subscriber's callback in a thread of its own)."""
+@contextmanager
+def lockstep_pair(miner: ModuleType, log: Any = None) -> Iterator[tuple[Any, Any]]:
+    """pc2's lockstep node and an observer's (a coordinator's) on loopback, each on a block
+    of its own, both joined; closed after."""
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
     Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    process_block, observer_block = Block(layout), Block(layout)
     process = zt.ZenohTransport(
-        transport.Mirror(layout, process_block, "pc2"),
+        transport.Mirror(layout, Block(layout), "pc2"),
         zt.Options(listen=(endpoint,)),
         "pc2",
         ("pp",),
         block_when_congested=True,
+        log=log,
     )
     observer = zt.ZenohTransport(
-        transport.Mirror(layout, observer_block),
+        transport.Mirror(layout, Block(layout)),
         zt.Options(connect=(endpoint,)),
         block_when_congested=True,
     )
-    record, seen = layout.COMMAND_IN["pp"], []
     try:
         assert process.wait(lambda: len(process.joined) == 2, 10.0)
         assert observer.wait(lambda: len(observer.joined) == 2, 10.0)
-        for number in range(1, 301):
-            record.write(observer_block.buf, command_num=number, command=3)
-            observer.push()
-            observer.send_step("pc2", b"step")
-            assert process.wait(lambda: bool(process.steps), 10.0)
-            process.steps.clear()
-            seen.append(record.read(process_block.buf)["command_num"])
+        yield process, observer
     finally:
         observer.close()
         process.close()
+
+
+def test_a_step_request_arrives_after_the_records_sent_before_it(miner: ModuleType) -> None:
+    """Lockstep relies on it: what a coordinator wrote (a scenario's command) must be in a
+    process's block when the step it sends next arrives, though they come through two
+    subscribers (zenoh-python would run each subscriber's callback in a thread of its own).
+    A cycle's requests go as one message; each process takes its own out of it."""
+    layout, zt = rcs(miner, "layout"), rcs(miner, "rcs.zenoh_transport")
+    record, seen, taken = layout.COMMAND_IN["pp"], [], []
+    names = list(layout.PROCESSES)
+    with lockstep_pair(miner) as (process, observer):
+        process_block, observer_block = process.mirror.block, observer.mirror.block
+        for number in range(1, 301):
+            record.write(observer_block.buf, command_num=number, command=3)
+            observer.push()
+            # pc1's request says module 1, pc2's module 2; each names the cycle `number`
+            observer.send_steps(
+                {
+                    n: zt.step_request(i + 1, i + 1, True, [number] * len(names))
+                    for i, n in enumerate(names)
+                }
+            )
+            assert process.wait(lambda: bool(process.steps), 10.0)
+            taken += process.steps
+            process.steps.clear()
+            seen.append(record.read(process_block.buf)["command_num"])
     assert seen == list(range(1, 301))
+    first = [STEP_FIRST.unpack_from(request, 0)[1] for request in taken]
+    assert first == [names.index("pc2") + 1] * 300, "pc2's own request, once a message"
+
+
+STEP_FIRST = __import__("struct").Struct("<cH")  # a step request's b"s" and first module
+
+
+def test_a_process_waiting_for_its_step_is_not_woken_by_pushes_and_applies_them_with_it(
+    miner: ModuleType,
+) -> None:
+    """A lockstep process waiting for its step (`eager` off, as `serve` sets it) is woken
+    by the step, not by each push of another node (a wake-up a push, and its CPU, on every
+    cycle): its `ready` is asked a few times (the 0.2 s stop checks), not once a push; what
+    the pushes carried is in its block, in order, when the step has come."""
+    layout, zt = rcs(miner, "layout"), rcs(miner, "rcs.zenoh_transport")
+    record, asked = layout.COMMAND_IN["pp"], []
+    names = list(layout.PROCESSES)
+    with lockstep_pair(miner) as (process, observer):
+        process_block, observer_block = process.mirror.block, observer.mirror.block
+
+        def stepped() -> bool:
+            asked.append(record.read(process_block.buf)["command_num"])
+            return bool(process.steps)
+
+        process.eager = False
+        waiting = ThreadPoolExecutor(1).submit(process.wait, stepped, 10.0)
+        wait_for(lambda: bool(asked), "the process waiting", 10.0)
+        for number in range(1, 41):  # one at a time, while it waits (about 0.2 s)
+            record.write(observer_block.buf, command_num=number, command=3)
+            observer.push()
+            time.sleep(0.005)
+        observer.send_steps({"pc2": zt.step_request(0, 0, True, [0] * len(names))})
+        assert waiting.result(10.0)
+    assert asked[-1] == 40, "every push applied, the last one last, with the step"
+    assert len(asked) < 10, f"woken {len(asked)} times for 40 pushes and a step"
+
+
+def test_a_malformed_step_request_is_counted_for_its_sender_and_never_run(
+    miner: ModuleType,
+) -> None:
+    """A step message that is not whole requests of this layout (cut short, a request of
+    another size) is refused whole: no step is run from it, it is counted as malformed for
+    the node that sent it (`ctl status`'s counters), said in one line; a good one after it
+    is taken."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    zt = rcs(miner, "rcs.zenoh_transport")
+    said: list[str] = []
+    report: dict[str, int] = {}
+    names = list(layout.PROCESSES)
+    good = zt.step_request(0, 0, True, [0] * len(names))
+    index = names.index("pc2")
+    with lockstep_pair(miner, said.append) as (process, observer):
+        process.report, sender = report, observer.node
+        key = f"{zt.prefix(layout)}/{transport.STEP_KEY}/{sender}"
+        for garbage in (zt.STEP_ENTRY.pack(index, len(good)) + good[:-1], b"\x01"):
+            observer.session.put(key, garbage)
+        assert process.wait(lambda: process.peers.get(sender, {}).get("malformed") == 2, 10.0)
+        observer.send_steps({"pc2": good})
+        assert process.wait(lambda: bool(process.steps), 10.0)
+    assert list(process.steps) == [good], "only the good request is taken"
+    assert report["net_malformed"] == 2
+    assert said == [
+        f"pc2: a malformed step request from {sender} ({len(good) + 3} bytes, not whole "
+        f"requests of layout {layout.LAYOUT_HASH[:8]}): refused, no step run (1 from "
+        f"{sender} so far)"
+    ]
 
 
 def test_a_node_of_another_layout_is_named_and_ignored(miner: ModuleType) -> None:

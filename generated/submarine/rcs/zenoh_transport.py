@@ -22,7 +22,7 @@ import sys
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from struct import Struct
 from typing import Any
@@ -62,6 +62,12 @@ PERF_INTERVAL = 0.1
 # within it (a receiver takes a repeat as the value it has, and counts nothing).
 REFRESH_INTERVAL = 1.0
 WARN_EVERY = 10.0  # seconds: at most one line a peer about its malformed pushes
+# A lockstep cycle's step requests travel as one message from the coordinator (every
+# process's, each after this: the process's index in the layout and the request's size);
+# each process takes its own. One put a cycle, not one per process, and each process
+# receives one message, not every other process's request too (all subscribe to the
+# whole prefix).
+STEP_ENTRY = Struct("<HH")
 
 
 @dataclass(frozen=True)
@@ -146,10 +152,14 @@ class ZenohTransport:
         self.prefix = prefix(layout)
         self.node = process if process is not None else f"_observer_{mirror.epoch:016x}"
         # What Zenoh's threads delivered, in order: a SimpleQueue (put and a timed get in C:
-        # no Python Condition on either side of the hand-off), and what `wait` took from it
-        # while blocking, for the next `pull`.
+        # no Python Condition on either side of the hand-off). What wakes a waiting node
+        # (`wait`, `hear`) is a token in `_bell`, put after each message that may let it go
+        # on: every message, but while `eager` is False (a lockstep process waiting for its
+        # step) not another node's push, which waits in the inbox to be applied with the
+        # step (one wake-up a cycle fewer for each other process's push).
         self.inbox: queue.SimpleQueue[tuple[str, str, bytes]] = queue.SimpleQueue()
-        self._taken: list[tuple[str, str, bytes]] = []
+        self._bell: queue.SimpleQueue[None] = queue.SimpleQueue()
+        self.eager = True
         self.steps: deque[bytes] = deque()
         self.lost: set[str] = set()
         self.joined: set[str] = set()
@@ -184,7 +194,11 @@ class ZenohTransport:
             raise TransportError(f"zenoh: {str(error).split(' at /')[0]}") from None
         self._declared: list[Any] = []
         self._cut = len(self.prefix) + 1
-        self._step = f"{STEP_KEY}/{process}"
+        self._steps = f"{STEP_KEY}/"
+        names = list(layout.PROCESSES)
+        self._me = names.index(process) if process in names else None
+        # a request's size: the segment, then the heartbeat each process must have reached
+        self._request_size = STEP.size + 8 * len(names)
         self._pushes = f"{PUSH_KEY}/"
         self._heard = f"{HEARD_KEY}/"
         # Messages go through publishers declared once, not express: Zenoh batches only
@@ -192,7 +206,7 @@ class ZenohTransport:
         # express put makes the sender wait for the link on every message (a push stream
         # sent 25-30 % fewer records a second: bench/prototypes/zenoh_rate_ab.py).
         self._publisher: Any = None
-        self._steppers: dict[str, Any] = {}
+        self._stepper: Any = None
         # One subscriber for the system's whole prefix, filtered here by what this node
         # reads: one zenoh-python thread then delivers everything in the order each sender
         # sent it (a push whole, a coordinator's records before its step request). Several
@@ -216,13 +230,16 @@ class ZenohTransport:
         key = str(sample.key_expr)[self._cut :]
         if key.startswith(self._pushes):
             self._arrived("push", key, sample.payload.to_bytes())
-        elif key == self._step:
-            self._arrived("step", "", sample.payload.to_bytes())
+        elif key.startswith(self._steps):
+            if self._me is not None:  # (an observer runs no step)
+                self._arrived("step", key[len(self._steps) :], sample.payload.to_bytes())
         elif key.startswith(self._heard):
             self._arrived("heard", key[len(self._heard) :], sample.payload.to_bytes())
 
     def _arrived(self, kind: str, key: str, payload: bytes) -> None:
         self.inbox.put((kind, key, payload))
+        if self.eager or kind != "push":  # (the token after the message: see `pull`)
+            self._bell.put(None)
 
     def _token(self, sample: Any) -> None:
         parts = str(sample.key_expr).split("/")  # rcs, system, hash-8, _alive, node
@@ -238,9 +255,13 @@ class ZenohTransport:
     def pull(self) -> None:
         """Apply everything that arrived, in order: records into the block, step requests
         to `steps`, tokens to liveness (a lost process is marked DEAD)."""
-        arrived, self._taken = self._taken, []
-        inbox = self.inbox
-        while not inbox.empty():  # this thread is its only reader
+        bell, inbox, arrived = self._bell, self.inbox, []
+        # The tokens first, then the messages (this thread is the only reader of both): a
+        # token put after this is for a message taken now or later, so none is lost (at
+        # worst one wake-up finds nothing new).
+        while not bell.empty():
+            bell.get_nowait()
+        while not inbox.empty():
             arrived.append(inbox.get_nowait())
         mirror = self.mirror
         for kind, key, payload in arrived:
@@ -253,7 +274,7 @@ class ZenohTransport:
                 if full == FULL and whole:
                     self.synced.add(sender)
             elif kind == "step":
-                self.steps.append(payload)
+                self._step(key, payload)
             elif kind == "heard":  # a process's names, comma-separated (others ignored)
                 names = payload.decode("utf-8", "replace").split(",")
                 self.hears[key] = frozenset(n for n in names if n in mirror.layout.PROCESSES)
@@ -290,24 +311,65 @@ class ZenohTransport:
         for record, message in records or ():
             if self._wanted(record):
                 mirror.apply(record, message)
-        peer = self.peers.setdefault(sender, dict.fromkeys(("applied", "late", "malformed"), 0))
+        peer = self._peer(sender)
         after = (counters.applied, counters.late, counters.malformed)
         for name, old, new in zip(peer, before, after, strict=True):
             peer[name] += new - old
         if records is None:
-            now = time.monotonic()
-            if now - self._told.get(sender, -WARN_EVERY) >= WARN_EVERY:
-                self._told[sender] = now
-                self.log(
-                    f"{self.node}: a malformed push from {sender} ({len(payload)} bytes, not "
-                    f"whole records of layout {mirror.layout.LAYOUT_HASH[:8]}): refused "
-                    f"whole, nothing applied ({peer['malformed']} from {sender} so far)"
-                )
-        if self.report is not None:
-            report = self.report
-            report["net_applied"], report["net_late"] = after[0], after[1]
-            report["net_malformed"] = after[2]
+            self._malformed(
+                sender,
+                f"push from {sender} ({len(payload)} bytes, not whole records of layout "
+                f"{mirror.layout.LAYOUT_HASH[:8]}): refused whole, nothing applied",
+            )
+        self._reported()
         return records is not None
+
+    def _step(self, sender: str, payload: bytes) -> None:
+        """A coordinator's step message: this process's request in it to `steps`; one that
+        is not whole entries of this layout's size is refused whole, counted for `sender`."""
+        at, total, size, found = 0, len(payload), self._request_size, None
+        while at < total:
+            if at + STEP_ENTRY.size > total:
+                break
+            index, length = STEP_ENTRY.unpack_from(payload, at)
+            start = at + STEP_ENTRY.size
+            at = start + length
+            if length != size or at > total:
+                break
+            if index == self._me:
+                found = payload[start:at]
+        else:
+            if found is not None:
+                self.steps.append(found)
+            return
+        self.mirror.counters.malformed += 1
+        self._peer(sender)["malformed"] += 1
+        self._reported()
+        self._malformed(
+            sender,
+            f"step request from {sender} ({total} bytes, not whole requests of layout "
+            f"{self.mirror.layout.LAYOUT_HASH[:8]}): refused, no step run",
+        )
+
+    def _peer(self, sender: str) -> dict[str, int]:
+        """What came from `sender` so far: applied, late, malformed."""
+        return self.peers.setdefault(sender, dict.fromkeys(("applied", "late", "malformed"), 0))
+
+    def _malformed(self, sender: str, what: str) -> None:
+        """Say a malformed message from `sender` (`what` it was), at most once every
+        WARN_EVERY seconds per peer."""
+        now = time.monotonic()
+        if now - self._told.get(sender, -WARN_EVERY) >= WARN_EVERY:
+            self._told[sender] = now
+            count = self.peers[sender]["malformed"]
+            self.log(f"{self.node}: a malformed {what} ({count} from {sender} so far)")
+
+    def _reported(self) -> None:
+        """The process's control-record counters, as the mirror's now."""
+        if self.report is not None:
+            counters, report = self.mirror.counters, self.report
+            report["net_applied"], report["net_late"] = counters.applied, counters.late
+            report["net_malformed"] = counters.malformed
 
     def push(self, last: bool = False) -> None:
         """Send every record this node wrote since the last push (everything it wrote, when
@@ -368,19 +430,24 @@ class ZenohTransport:
             beat()
             self.push()
             try:  # the next message wakes this thread at once; a stop within 0.1 s
-                self._taken.append(self.inbox.get(timeout=0.1))
+                self._bell.get(timeout=0.1)
             except queue.Empty:
                 pass
 
-    def send_step(self, process: str, request: bytes) -> None:
-        """A lockstep request to `process` (after this node's own records: same link, in order)."""
-        publisher = self._steppers.get(process)
-        if publisher is None:
-            publisher = self._steppers[process] = self.session.declare_publisher(
-                f"{self.prefix}/{STEP_KEY}/{process}",
+    def send_steps(self, requests: Mapping[str, bytes]) -> None:
+        """A lockstep cycle's requests (`step_request`) to the processes named, as one
+        message (after this node's own records: same link, in order)."""
+        index = {name: i for i, name in enumerate(self.mirror.layout.PROCESSES)}
+        payload = b"".join(
+            STEP_ENTRY.pack(index[name], len(request)) + request
+            for name, request in requests.items()
+        )
+        if self._stepper is None:
+            self._stepper = self.session.declare_publisher(
+                f"{self.prefix}/{STEP_KEY}/{self.node}",
                 congestion_control=self._zenoh.CongestionControl.BLOCK,
             )
-        publisher.put(request)
+        self._stepper.put(payload)
 
     def wait(self, ready: Callable[[], bool], timeout: float | None) -> bool:
         """Pull until `ready()` holds (True) or `timeout` seconds pass (False)."""
@@ -395,7 +462,7 @@ class ZenohTransport:
             if left is not None and left <= 0:
                 return False
             try:  # the next message wakes this thread at once (at most 0.2 s: a stop)
-                self._taken.append(self.inbox.get(timeout=0.2 if left is None else min(left, 0.2)))
+                self._bell.get(timeout=0.2 if left is None else min(left, 0.2))
             except queue.Empty:
                 pass
 
@@ -473,7 +540,10 @@ def serve(
     transport.push()  # the INITs to our roots, the first beat
     try:
         while not stop.requested:
-            if not transport.wait(lambda: bool(transport.steps) or stop.requested, None):
+            transport.eager = False  # until a step comes, another node's push can wait
+            stepped = transport.wait(lambda: bool(transport.steps) or stop.requested, None)
+            transport.eager = True
+            if not stepped:
                 continue
             if stop.requested:
                 break

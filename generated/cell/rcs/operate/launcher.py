@@ -927,24 +927,24 @@ class NetworkCoordinator:
     def step(self, cycles: int = 1) -> None:
         """Run `cycles` whole system cycles; raises ProcessLost if a process is gone.
 
-        Every request of a cycle goes at once: each names the cycle the processes before it
-        reach in this cycle, so a process waits in its own mirror for their records (which
-        come to it directly) and none waits for the coordinator to hear the one before it:
-        three network hops on the way of a two-process cycle, not four."""
+        Every request of a cycle goes at once, in one message: each names the cycle the
+        processes before it reach in this cycle, so a process waits in its own mirror for
+        their records (which come to it directly) and none waits for the coordinator to hear
+        the one before it: three network hops on the way of a two-process cycle, not four."""
         from ..zenoh_transport import step_request
 
         net, mirror = self.net, self.net.mirror
         for _ in range(cycles):
             net.push()  # what was written here (a scenario's events) goes first
-            targets = dict(self.reached)
+            targets, requests = dict(self.reached), {}
             for name, first, last, end in self.segments:
                 if not end:
                     raise ProcessLost(f"process {name}: a segment that does not end a cycle")
                 if name in net.lost or name not in self.launcher.children:
                     raise ProcessLost(f"process {name} is not running")
-                request = step_request(first, last, end, [targets[n] for n in self.names])
-                net.send_step(name, request)
+                requests[name] = step_request(first, last, end, [targets[n] for n in self.names])
                 targets[name] = self.reached[name] + 1
+            net.send_steps(requests)  # one message a cycle: each process takes its own
             if not net.wait(_answered(mirror, net.lost, targets), self.timeout):
                 late = [n for n in self.names if mirror.heartbeat(n) < targets[n]]
                 raise ProcessLost(f"process(es) {late} did not answer within {self.timeout:g} s")
