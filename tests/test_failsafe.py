@@ -1245,9 +1245,9 @@ def test_lockstep_never_waits_for_a_lost_process_and_latches_every_actuator(
     pa = h.launcher.children["pa"].popen
     segment = h.launcher.segment
     try:
-        h.coordinator.timeout = 2.0
         h.command("lead", "CONVOY")  # both vehicles drive
-        h.cycle(3)
+        h.cycle(3)  # (at the default timeout: on a busy host a healthy step may take 2 s)
+        h.coordinator.timeout = 2.0
         driving = {name: h.world[name] for name in ("v1_drive", "v2_drive", "v2_brake")}
         assert driving == {"v1_drive": 1.0, "v2_drive": 2.0, "v2_brake": False}
         pa.send_signal(signal.SIGKILL if fault == "kill" else signal.SIGSTOP)
@@ -1311,9 +1311,9 @@ def test_the_lockstep_ring_loses_a_process_holding_the_token(
     try:
         assert _eventfds() == eventfds + len(h.launcher.order) + 1
         assert _memfds() > memfds  # the ring's page
-        h.coordinator.timeout = 2.0
         h.command("lead", "CONVOY")
-        h.cycle(3)
+        h.cycle(3)  # (at the default timeout: on a busy host a healthy step may take 2 s)
+        h.coordinator.timeout = 2.0
         popen.send_signal(signal.SIGSTOP)
         ran = beat.unpack_from(h.buf, record.offset)[4]
         stepping = threading.Thread(target=step, daemon=True)

@@ -16,6 +16,7 @@ import pytest
 pytest.importorskip("textual")
 
 from conftest import until, wait_for  # noqa: E402
+from support.running import at_ease  # noqa: E402
 from test_ctl import DUO, Running  # noqa: E402
 from textual.widgets import DataTable, Input  # noqa: E402
 
@@ -24,10 +25,12 @@ from rcsgen.tools.monitor import Monitor, tree_order  # noqa: E402
 
 
 @pytest.fixture(scope="module")
-def duo() -> Iterator[Path]:
+def duo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """The duo at ease (support.running.at_ease): what the screen shows and its keys do is
+    checked here, not the duo's detection bounds."""
     import shutil
 
-    scratch, name = generate(DUO)
+    scratch, name = generate(at_ease(DUO, tmp_path_factory.mktemp("duo")))
     yield scratch / name
     shutil.rmtree(scratch, ignore_errors=True)
 
