@@ -6,12 +6,15 @@ bad input must be one line on stderr with exit 2 (usage) or 1, never a traceback
 
 from __future__ import annotations
 
+import atexit
+import functools
 import importlib
 import json
 import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -413,12 +416,25 @@ def miner_layout() -> ModuleType:
     )
 
 
+@functools.cache
+def miner_at_ease() -> tuple[Path, ModuleType]:
+    """specs/miner generated at ease (support.running.at_ease), once for the test run: the
+    package's directory and its layout. These tests check the console and the roles, and
+    at load 15-29 the miner's own watchdog halted sec under them (`sec HALT #3 ERROR`)."""
+    into = Path(tempfile.mkdtemp(prefix="rcsgen-ctl-miner-"))
+    atexit.register(shutil.rmtree, into, ignore_errors=True)
+    scratch, name = generate(at_ease(REPO / "specs" / "miner", into))
+    atexit.register(shutil.rmtree, scratch, ignore_errors=True)
+    package = import_package(scratch / name, REPO / "specs" / "miner")
+    return scratch / name, importlib.import_module(f"{package.__name__}.layout")
+
+
 def running_miner(*options: str) -> Running:
-    """The committed miner package launched paced, with the operator at the console (the
-    scripted operator never answers the conveyor-tail request)."""
-    miner = REPO / "generated" / "miner"
+    """The miner launched paced (at ease), with the operator at the console (the scripted
+    operator never answers the conveyor-tail request)."""
+    miner, layout = miner_at_ease()
     return Running(
-        miner, REPO / "specs" / "miner", miner_layout(), "--world", "operator_delay=-1", *options
+        miner, REPO / "specs" / "miner", layout, "--world", "operator_delay=-1", *options
     )
 
 
