@@ -214,7 +214,7 @@ def test_the_role_limits_the_keys_and_requests_are_answered_on_screen() -> None:
             assert "refused: changing sec's mode needs override on sec" in said(app)
             assert system.module("sec")["run"] == "RUN"
             # ct asks at the first sump: seconds, more on a busy host
-            await until(pilot, lambda: "ct asks:" in requests(app), "ct asks for the tail", 90)
+            await until(pilot, lambda: "ct asks:" in requests(app), "ct asks for the tail", 180)
             asking = screen_text(app)
             await pilot.press("a")
             await until(pilot, lambda: "answered tail: " in said(app), "the answer said")
