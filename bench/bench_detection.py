@@ -34,7 +34,7 @@ import threading
 import time
 from types import ModuleType
 
-from common import ROOT, write_json
+from common import ROOT, read_whole, write_json
 
 from rcsgen.tools.harness import Harness, generate, import_package
 
@@ -95,15 +95,7 @@ class Duo:
     def read(self, record, buf) -> dict:
         """A buffer the running processes write, read whole: Record.read gives up (StaleRead)
         when its writer is writing, or was descheduled mid-write, so try again."""
-        stale = self.module("rcs.contract").StaleRead
-        end = time.monotonic() + DEADLINE
-        while True:
-            try:
-                return record.read(buf)
-            except stale:
-                if time.monotonic() > end:
-                    raise
-                time.sleep(POLL)
+        return read_whole(record, buf, DEADLINE, POLL)
 
     def command(self, buf, module: str, command: str) -> None:
         record = self.layout.COMMAND_IN[module]

@@ -45,7 +45,7 @@ from pathlib import Path
 from types import ModuleType
 
 from bench_lockstep import CHAIN, Driver, race, stats
-from common import ROOT, write_json
+from common import ROOT, read_whole, write_json
 
 from rcsgen.runtime import contract
 from rcsgen.tools import scenario as scenarios
@@ -462,7 +462,7 @@ def detection(runs: int, soak: float) -> dict[str, object]:
             until(lambda block=block: layout.STATUS_OUT["pp"].read(block.buf)["status"] == 2)
             if run == 0 and soak > 0:
                 time.sleep(soak)
-                record = layout.PROCESSES["pc1"].read(block.buf)
+                record = read_whole(layout.PROCESSES["pc1"], block.buf)
                 soaked = {
                     "seconds": soak,
                     "cycles": record["heartbeat"],

@@ -106,3 +106,19 @@ def write_json(path: str | None, data: object) -> None:
         Path(path).write_text(text + "\n")
     else:
         sys.stdout.write(text + "\n")
+
+
+def read_whole(record, buf: memoryview, deadline: float = 20.0, poll: float = 0.0005) -> dict:
+    """A record of a running system, read whole: `Record.read` gives up (StaleRead) when
+    its writer is writing, or was descheduled mid-write (a busy host), so read it again,
+    for `deadline` seconds at most (then the writer died mid-write: StaleRead)."""
+    from rcsgen.runtime.contract import StaleRead  # one class for every package's copy
+
+    end = time.monotonic() + deadline
+    while True:
+        try:
+            return record.read(buf)
+        except StaleRead:
+            if time.monotonic() > end:
+                raise
+            time.sleep(poll)

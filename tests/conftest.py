@@ -5,11 +5,13 @@ each test carries its tier's marker, so `pytest -m unit` runs one tier.
 
 from __future__ import annotations
 
+import asyncio
 import os
 import shutil
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from click.testing import CliRunner, Result
@@ -111,6 +113,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_tool_values",
             "test_traces",
             "test_validate",
+            "test_waiting",
         ),
     ),
     "system": (
@@ -230,26 +233,73 @@ def rcsgen(*args: str | Path) -> Result:
     return result
 
 
+class _Polls:
+    """One bounded wait on a condition, for `wait_for` and `until`: each `poll` says the
+    condition's value, a record caught mid-write (StaleRead: its writer was descheduled
+    between the sequence word's two stores, or died) counting as not yet; `failed` names
+    what was awaited, and the mid-write read if that was the last thing seen."""
+
+    def __init__(self, condition: Callable[[], object], what: str, deadline: float) -> None:
+        self.condition, self.what, self.end = condition, what, time.monotonic() + deadline
+        self.stale: Exception | None = None
+
+    def poll(self) -> object:
+        from rcsgen.runtime.contract import StaleRead  # one class for every package's copy
+
+        try:
+            return self.condition()
+        except StaleRead as error:
+            self.stale = error
+            return None
+
+    def running(self) -> bool:
+        return time.monotonic() < self.end
+
+    def failed(self) -> AssertionError:
+        last = f" (last read: {self.stale})" if self.stale else ""
+        return AssertionError(f"gave up waiting: {self.what}{last}")
+
+
 def wait_for(
     condition: Callable[[], object], what: str, deadline: float = 20.0, every: float = 0.01
 ) -> object:
     """Poll `condition` until it is true (its value); fail naming `what` after `deadline`
     seconds: how the tests of running systems wait, never asserting on wall-clock time. A
-    record caught mid-write (StaleRead: its writer was descheduled between the sequence
-    word's two stores, or died) is not yet: polled again, and named if it never settles."""
-    from rcsgen.runtime.contract import StaleRead  # one class for every package's copy
-
-    end = time.monotonic() + deadline
-    stale: StaleRead | None = None
-    while time.monotonic() < end:
-        try:
-            value = condition()
-        except StaleRead as error:
-            stale, value = error, None
+    record caught mid-write is not yet: polled again, and named if it never settles."""
+    polls = _Polls(condition, what, deadline)
+    while polls.running():
+        value = polls.poll()
         if value:
             return value
         time.sleep(every)
-    raise AssertionError(f"gave up waiting: {what}" + (f" (last read: {stale})" if stale else ""))
+    raise polls.failed()
+
+
+async def until(
+    pilot: Any, condition: Callable[[], object], what: str, deadline: float = 30.0
+) -> object:
+    """`wait_for` for a test that drives a Textual app (`pilot`; None: a bare asyncio
+    loop): the app runs on between polls (its timers, its refresh, a pressed key's action),
+    20 ms at a time, until `condition()` holds; never a fixed pause before an assertion."""
+    polls = _Polls(condition, what, deadline)
+    while polls.running():
+        value = polls.poll()
+        if value:
+            return value
+        await (asyncio.sleep(0.02) if pilot is None else pilot.pause(0.02))
+    raise polls.failed()
+
+
+def read_whole(record: Any, buf: memoryview, deadline: float = 20.0) -> dict[str, Any]:
+    """A record of a running system, read whole: how a test reads one outside `wait_for`.
+    A bare `record.read` raises StaleRead when it meets the record mid-write, and on a busy
+    host its writer can be descheduled between the sequence word's two stores for longer
+    than the read's few tries; this reads again until the record is whole, and fails naming
+    it only when it stays mid-write `deadline` seconds (its writer died mid-write)."""
+    found = wait_for(
+        lambda: record.read(buf), f"the record at offset {record.offset} whole", deadline
+    )
+    return found  # type: ignore[return-value]
 
 
 def edit(path: Path, old: str, new: str) -> str:

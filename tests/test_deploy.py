@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import read_whole
 
 from rcsgen.runtime.operate.deploy import DeployError, load
 
@@ -239,7 +240,7 @@ def test_two_hosts_of_one_file_exchange_buffers(tmp_path: Path) -> None:
         # vg (on pc1) commanded pp (on pc2) over the link: pc2's block holds the command
         block = rcs.Block(layout, segments["pc2"], create=False)
         try:
-            assert layout.COMMAND_IN["pp"].read(block.buf)["command_num"] >= 1
+            assert read_whole(layout.COMMAND_IN["pp"], block.buf)["command_num"] >= 1
         finally:
             block.close()
     finally:

@@ -24,7 +24,7 @@ from types import ModuleType
 from typing import Any
 
 import pytest
-from conftest import wait_for
+from conftest import read_whole, wait_for
 from support.running import alive, attached, segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
@@ -50,21 +50,7 @@ def runtime(package: ModuleType, name: str) -> ModuleType:
 
 
 def world(layout: ModuleType, buf: memoryview, name: str) -> object:
-    return read(layout.WORLD[name], buf)[name]
-
-
-def read(record: Any, buf: memoryview, deadline: float = 5.0) -> dict[str, Any]:
-    """A record of a running system, whole: a read that lands on a write (or on the buffer
-    of a writer stopped or killed mid-write, until its restart rewrites it) is tried again."""
-    stale = sys.modules[type(record).__module__].StaleRead  # the package's rcs.contract
-    end = time.monotonic() + deadline
-    while True:
-        try:
-            return record.read(buf)  # type: ignore[no-any-return]
-        except stale:
-            if time.monotonic() > end:
-                raise
-        time.sleep(0.005)
+    return read_whole(layout.WORLD[name], buf)[name]
 
 
 # ---------------------------------------------------------------- overrides
@@ -193,7 +179,7 @@ def actuators(
 
 
 def pids(layout: ModuleType, buf: memoryview) -> list[int]:
-    return [int(read(layout.PROCESSES[p], buf)["pid"]) for p in layout.PROCESSES]
+    return [int(read_whole(layout.PROCESSES[p], buf)["pid"]) for p in layout.PROCESSES]
 
 
 def system_of(fleet: Path, package: ModuleType, spec: Path = FLEET) -> object:
@@ -239,19 +225,19 @@ def convoy(fleet: Path, package: ModuleType) -> Iterator[Callable[..., Any]]:
 def convoy_command(layout: ModuleType, buf: memoryview) -> None:
     """The operator's CONVOY to lead (the root)."""
     record = layout.COMMAND_IN["lead"]
-    number = read(record, buf)["command_num"] + 1
+    number = read_whole(record, buf)["command_num"] + 1
     record.write(buf, command_num=number, command=layout.COMMAND_NAMES["lead"].index("CONVOY"))
 
 
 def lead_status(layout: ModuleType, buf: memoryview) -> tuple[str, int]:
     """lead's status by name and its error_num (1: LOST, the runtime's safe state)."""
-    values = read(layout.STATUS_OUT["lead"], buf)
+    values = read_whole(layout.STATUS_OUT["lead"], buf)
     contract = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.contract"]
     return contract.STATUS_NAMES[values["status"]], int(values["error_num"])
 
 
 def lost_mask(layout: ModuleType, buf: memoryview, watcher: str) -> int:
-    return int(read(layout.PROCESSES[watcher], buf)["lost"])
+    return int(read_whole(layout.PROCESSES[watcher], buf)["lost"])
 
 
 def watch(launcher: Any, condition: Callable[[], object], what: str, deadline: float = 20) -> None:
@@ -268,7 +254,7 @@ def seen(launcher: Any) -> str:
     layout = launcher.system.layout
     override = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.override"]
     buf = launcher.block.buf
-    records = {p: read(layout.PROCESSES[p], buf) for p in layout.PROCESSES}
+    records = {p: read_whole(layout.PROCESSES[p], buf) for p in layout.PROCESSES}
     return (
         f"the launcher saw {launcher.events}; overrides {override.overrides(layout, buf)}; "
         + ", ".join(
@@ -295,7 +281,7 @@ def test_a_dead_or_frozen_process_latches_every_actuator_and_halts_the_hierarchy
     watch(launcher, lambda: actuators(layout, buf) == ACTUATORS_SAFE, "every actuator safe", 10)
     watch(launcher, lambda: lost_mask(layout, buf, "pl") & 0b010, "pl reports pa lost")
     watch(launcher, lambda: lead_status(layout, buf) == ("ERROR", 1), "lead ERROR(LOST)")
-    sent = read(layout.COMMAND_IN["v2"], buf)
+    sent = read_whole(layout.COMMAND_IN["v2"], buf)
     assert layout.COMMAND_NAMES["v2"][sent["command"]] == "HALT", "lead halted v2 too"
     assert set(override.overrides(layout, buf)) == set(ACTUATORS_SAFE)
     watch(launcher, lambda: launcher.halted, "the launcher saw it")
@@ -345,7 +331,7 @@ def test_the_survivor_keeps_going_when_its_supervisor_continues_on_a_loss(
     expected = {"v1_drive": 1.0, "v2_drive": -0.5, "v2_brake": True}
     assert actuators(layout, buf) == expected, seen(launcher)
     assert lead_status(layout, buf) == ("EXECUTING", 0)
-    assert layout.STATE_NAMES["lead"][read(layout.STATUS_OUT["lead"], buf)["state"]] == "S2"
+    assert layout.STATE_NAMES["lead"][read_whole(layout.STATUS_OUT["lead"], buf)["state"]] == "S2"
     launcher.poll()
     assert not launcher.halted, "a contained loss does not halt the system"
 
@@ -369,7 +355,7 @@ def test_a_starved_process_trips_its_watchdog_and_latches_safe(
     finally:
         pa.send_signal(signal.SIGCONT)
     assert actuators(layout, buf) == ACTUATORS_SAFE, seen(launcher)
-    assert read(layout.PROCESSES["pa"], buf)["watchdog_trips"] >= 1, seen(launcher)
+    assert read_whole(layout.PROCESSES["pa"], buf)["watchdog_trips"] >= 1, seen(launcher)
     watch(launcher, lambda: launcher.halted, "the launcher saw it")
 
 
@@ -389,19 +375,19 @@ def test_a_restarted_process_resumes_its_command_with_its_outputs_latched(
     launcher.children["pb"].popen.send_signal(signal.SIGKILL)
     restarted(launcher, "pb")
     record = layout.PROCESSES["pb"]
-    v2 = read(layout.STATUS_OUT["v2"], buf)
+    v2 = read_whole(layout.STATUS_OUT["v2"], buf)
     assert layout.STATE_NAMES["v2"][v2["state"]] == "S1", "v2 resumed DRIVE"
     assert contract.STATUS_NAMES[v2["status"]] == "EXECUTING"
-    assert v2["status_num"] == read(layout.COMMAND_IN["v2"], buf)["command_num"]
+    assert v2["status_num"] == read_whole(layout.COMMAND_IN["v2"], buf)["command_num"]
     assert actuators(layout, buf, ["v2_drive", "v2_brake"]) == {"v2_drive": -0.5, "v2_brake": True}
     assert override.reset(layout, buf, segment=launcher.segment) == ["v2_drive", "v2_brake"]
-    beat = read(record, buf)["heartbeat"]
-    watch(launcher, lambda: read(record, buf)["heartbeat"] > beat + 5, "five cycles of pb")
+    beat = read_whole(record, buf)["heartbeat"]
+    watch(launcher, lambda: read_whole(record, buf)["heartbeat"] > beat + 5, "five cycles of pb")
     assert actuators(layout, buf, ["v2_drive", "v2_brake"]) == {"v2_drive": -0.5, "v2_brake": True}
     command = layout.COMMAND_IN["v2"]
     command.write(
         buf,
-        command_num=read(command, buf)["command_num"] + 1,
+        command_num=read_whole(command, buf)["command_num"] + 1,
         command=layout.COMMAND_NAMES["v2"].index("DRIVE"),
     )
     watch(
@@ -424,7 +410,7 @@ def restarted(launcher: Any, name: str) -> int:
     record = layout.PROCESSES[name]
 
     def running() -> bool:
-        now = read(record, buf)
+        now = read_whole(record, buf)
         return bool(now["pid"] == new and now["state"] == contract.RUNNING and now["heartbeat"] > 3)
 
     watch(launcher, running, f"the new {name} running three cycles")
@@ -443,7 +429,10 @@ def restarted(launcher: Any, name: str) -> int:
 def status_of(layout: ModuleType, buf: memoryview, module: str) -> tuple[str, str, str, bool]:
     """(its last command, its status, its state, whether it has echoed that command)."""
     contract = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.contract"]
-    command, status = read(layout.COMMAND_IN[module], buf), read(layout.STATUS_OUT[module], buf)
+    command, status = (
+        read_whole(layout.COMMAND_IN[module], buf),
+        read_whole(layout.STATUS_OUT[module], buf),
+    )
     return (
         layout.COMMAND_NAMES[module][command["command"]],
         contract.STATUS_NAMES[status["status"]],
@@ -533,8 +522,12 @@ def test_a_restart_at_each_point_of_a_command_keeps_the_outputs_safe_and_the_mis
     assert override.overrides(layout, buf) == {f: ("SAFE", expected[f]) for f in latched}
     assert override.reset(layout, buf, segment=launcher.segment) == latched
     record = layout.PROCESSES[victim]
-    beat = read(record, buf)["heartbeat"]
-    watch(launcher, lambda: read(record, buf)["heartbeat"] > beat + 5, f"five cycles of {victim}")
+    beat = read_whole(record, buf)["heartbeat"]
+    watch(
+        launcher,
+        lambda: read_whole(record, buf)["heartbeat"] > beat + 5,
+        f"five cycles of {victim}",
+    )
     assert actuators(layout, buf) == expected, "a reset moves nothing"
 
 
@@ -618,7 +611,7 @@ def test_the_miner_s_pc1_refuses_a_restart_and_the_mission_ends_with_the_reason(
     )
     watch(launcher, lambda: all_latched_safe(layout, buf), "every actuator latched safe")
     assert "pc2" in launcher.children, "pc2 runs on (its supervisors in their safe state)"
-    sec = read(layout.STATUS_OUT["sec"], buf)
+    sec = read_whole(layout.STATUS_OUT["sec"], buf)
     assert sec["status"] != 2, "sec, in the dead pc1, never reports DONE"
 
 
@@ -637,18 +630,20 @@ def test_the_miner_s_pc2_resumes_after_a_restart_and_mines_again_when_commanded(
     launcher.children["pc2"].popen.send_signal(signal.SIGKILL)
     restarted(launcher, "pc2")
     watch(launcher, lambda: all_latched_safe(layout, buf), "every actuator latched safe")
-    sec = read(layout.STATUS_OUT["sec"], buf)
+    sec = read_whole(layout.STATUS_OUT["sec"], buf)
     assert (contract.STATUS_NAMES[sec["status"]], sec["error_num"]) == ("ERROR", 1)
     assert launcher.halted == "pc2 died (exit -9)"
     assert override.reset(layout, buf, segment=launcher.segment) == list(layout.SAFE_VALUES)
-    cycles = read(layout.PROCESSES["pc1"], buf)["heartbeat"]
-    watch(launcher, lambda: read(layout.PROCESSES["pc1"], buf)["heartbeat"] > cycles + 5, "pc1")
+    cycles = read_whole(layout.PROCESSES["pc1"], buf)["heartbeat"]
+    watch(
+        launcher, lambda: read_whole(layout.PROCESSES["pc1"], buf)["heartbeat"] > cycles + 5, "pc1"
+    )
     assert not moving(layout, buf), "a reset moves nothing"
     launcher_module = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.operate.launcher"]
     send = launcher_module.parse_send(layout, "sec.BOX_CUT:depth=1.5")
     watch(launcher, lambda: launcher_module.give(send, layout, buf), "BOX_CUT sent again")
     watch(launcher, lambda: moving(layout, buf), "the miner moving again", deadline=60)
-    assert read(layout.STATUS_OUT["sec"], buf)["status"] == 1, "sec EXECUTING its BOX_CUT"
+    assert read_whole(layout.STATUS_OUT["sec"], buf)["status"] == 1, "sec EXECUTING its BOX_CUT"
 
 
 def attach_when_made(package: ModuleType, layout: Any, segment: str) -> Any:
@@ -678,7 +673,7 @@ def test_a_killed_pc1_ends_the_operator_s_mission_with_the_reason(
         buf = block.buf
         wait_for(lambda: moving(layout, buf), "the miner moving", deadline=60)
         children = pids(layout, buf)
-        os.kill(int(read(layout.PROCESSES["pc1"], buf)["pid"]), signal.SIGKILL)
+        os.kill(int(read_whole(layout.PROCESSES["pc1"], buf)["pid"]), signal.SIGKILL)
         out, err = run.communicate(timeout=60)
     finally:
         if run.poll() is None:
@@ -710,7 +705,7 @@ def test_a_second_copy_of_a_process_is_refused_naming_the_owner(
     )
     assert second.returncode == 1
     assert f"process pb is already running (pid {owner}): a second copy is refused" in second.stderr
-    assert read(layout.PROCESSES["pb"], buf)["pid"] == owner
+    assert read_whole(layout.PROCESSES["pb"], buf)["pid"] == owner
     assert actuators(layout, buf) == DRIVING, "nothing disturbed"
 
 
@@ -796,25 +791,27 @@ def test_when_the_launcher_dies_its_children_drive_every_actuator_safe_and_clean
         block = attach_when_made(package, layout, segment)
         buf = block.buf
         wait_for(
-            lambda: all(read(layout.PROCESSES[p], buf)["heartbeat"] > 2 for p in layout.PROCESSES),
+            lambda: all(
+                read_whole(layout.PROCESSES[p], buf)["heartbeat"] > 2 for p in layout.PROCESSES
+            ),
             "running",
         )
         children = pids(layout, buf)
         record = layout.COMMAND_IN["lead"]
         record.write(
             buf,
-            command_num=read(record, buf)["command_num"] + 1,
+            command_num=read_whole(record, buf)["command_num"] + 1,
             command=layout.COMMAND_NAMES["lead"].index("CONVOY"),
         )
         wait_for(lambda: actuators(layout, buf) == DRIVING, "the convoy driving")
-        pa = int(read(layout.PROCESSES["pa"], buf)["pid"])
+        pa = int(read_whole(layout.PROCESSES["pa"], buf)["pid"])
         if pa_is == "frozen":
             os.kill(pa, signal.SIGSTOP)
         elif pa_is == "stalled":
             layout.WORLD["v1_stall"].write(buf, v1_stall=True)
-            beat = read(layout.PROCESSES["pa"], buf)["heartbeat"]
+            beat = read_whole(layout.PROCESSES["pa"], buf)["heartbeat"]
             time.sleep(0.5)  # five periods: if pa still beats, it did not stall
-            assert read(layout.PROCESSES["pa"], buf)["heartbeat"] <= beat + 1, "pa stalled"
+            assert read_whole(layout.PROCESSES["pa"], buf)["heartbeat"] <= beat + 1, "pa stalled"
         launcher.send_signal(signal.SIGKILL)
         launcher.wait(timeout=30)
         wait_for(lambda: actuators(layout, buf) == ACTUATORS_SAFE, "every actuator safe")
@@ -860,9 +857,9 @@ def test_a_child_learns_its_launcher_died_even_when_its_pipe_stays_open(
     child, keeper = (int(pid) for pid in parent.stdout.readline().split())
     buf = block.buf
     try:
-        wait_for(lambda: read(layout.PROCESSES["pa"], buf)["heartbeat"] > 2, "pa running")
+        wait_for(lambda: read_whole(layout.PROCESSES["pa"], buf)["heartbeat"] > 2, "pa running")
         record = layout.COMMAND_IN["v1"]
-        number = read(record, buf)["command_num"] + 1
+        number = read_whole(record, buf)["command_num"] + 1
         record.write(buf, command_num=number, command=layout.COMMAND_NAMES["v1"].index("DRIVE"))
         wait_for(lambda: world(layout, buf, "v1_drive") == 1.0, "v1 driving")
         parent.kill()
@@ -1248,9 +1245,9 @@ def test_lockstep_never_waits_for_a_lost_process_and_latches_every_actuator(
     pa = h.launcher.children["pa"].popen
     segment = h.launcher.segment
     try:
-        h.coordinator.timeout = 2.0
         h.command("lead", "CONVOY")  # both vehicles drive
-        h.cycle(3)
+        h.cycle(3)  # (at the default timeout: on a busy host a healthy step may take 2 s)
+        h.coordinator.timeout = 2.0
         driving = {name: h.world[name] for name in ("v1_drive", "v2_drive", "v2_brake")}
         assert driving == {"v1_drive": 1.0, "v2_drive": 2.0, "v2_brake": False}
         pa.send_signal(signal.SIGKILL if fault == "kill" else signal.SIGSTOP)
@@ -1314,9 +1311,9 @@ def test_the_lockstep_ring_loses_a_process_holding_the_token(
     try:
         assert _eventfds() == eventfds + len(h.launcher.order) + 1
         assert _memfds() > memfds  # the ring's page
-        h.coordinator.timeout = 2.0
         h.command("lead", "CONVOY")
-        h.cycle(3)
+        h.cycle(3)  # (at the default timeout: on a busy host a healthy step may take 2 s)
+        h.coordinator.timeout = 2.0
         popen.send_signal(signal.SIGSTOP)
         ran = beat.unpack_from(h.buf, record.offset)[4]
         stepping = threading.Thread(target=step, daemon=True)

@@ -10,13 +10,13 @@ import importlib
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
-from typing import Any
 
 import pytest
 
 pytest.importorskip("textual")
 
-from conftest import wait_for  # noqa: E402
+from conftest import until, wait_for  # noqa: E402
+from support.running import at_ease  # noqa: E402
 from test_ctl import DUO, Running  # noqa: E402
 from textual.widgets import DataTable, Input  # noqa: E402
 
@@ -25,10 +25,12 @@ from rcsgen.tools.monitor import Monitor, tree_order  # noqa: E402
 
 
 @pytest.fixture(scope="module")
-def duo() -> Iterator[Path]:
+def duo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """The duo at ease (support.running.at_ease): what the screen shows and its keys do is
+    checked here, not the duo's detection bounds."""
     import shutil
 
-    scratch, name = generate(DUO)
+    scratch, name = generate(at_ease(DUO, tmp_path_factory.mktemp("duo")))
     yield scratch / name
     shutil.rmtree(scratch, ignore_errors=True)
 
@@ -76,15 +78,34 @@ def screen_text(app: Monitor) -> str:
     return "\n".join(line.rstrip() for _, line in sorted(lines.items()))
 
 
+def said(app: Monitor) -> str:
+    """The monitor's message line."""
+    return str(app.query_one("#message").render())
+
+
+def requests(app: Monitor) -> str:
+    """The requests shown under the table."""
+    return str(app.query_one("#requests").render())
+
+
+def form(app: Monitor) -> str:
+    """What the send form's empty field says (an answer form shows what it takes)."""
+    return str(app.query_one("#send", Input).placeholder)
+
+
+def slowed(running: Running) -> object:
+    """p1's slow-down factor, as the console says."""
+    return running.json()["processes"]["p1"]["slow"]  # type: ignore[index]
+
+
 def test_keys_and_the_send_form_operate_the_running_system(
     running: Running, layout: ModuleType, tmp_path: Path
 ) -> None:
     async def drive() -> str:
         app = Monitor(layout, running.segment, interval=0.1)
         async with app.run_test(size=(150, 20)) as pilot:
-            await pilot.pause(0.3)
             table = app.query_one("#modules")
-            assert table.row_count == 2
+            await until(pilot, lambda: table.row_count == 2, "both modules drawn")
             assert app.selected() == "top"
             # the send form: MOVE to the root, numbered after the command it has (INIT #1,
             # or a HALT had a watchdog tripped on a busy host)
@@ -92,52 +113,43 @@ def test_keys_and_the_send_form_operate_the_running_system(
             assert isinstance(given, int)
             await pilot.press("c")
             await pilot.press(*"MOVE", "enter")
-            await pilot.pause(0.1)
-            assert f"sent top.MOVE #{given + 1}" in str(app.query_one("#message").render())
+            await until(pilot, lambda: "sent top.MOVE #" in said(app), "the MOVE sent")
+            assert f"sent top.MOVE #{given + 1}" in said(app)
             wait_for(lambda: running.module("top")["status"] == "DONE", "top DONE")
             # keys on the arm: stop, step, run, simulate
             await pilot.press("down")
-            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
-            assert app.selected() == "arm"
+            await until(pilot, lambda: app.selected() == "arm", "the arm selected")
             await pilot.press("s")
-            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
-            assert running.module("arm")["run"] == "STOP"
+            await until(pilot, lambda: running.module("arm")["run"] == "STOP", "arm stopped")
             await pilot.press("n")
-            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
-            assert running.module("arm")["step"] == "SINGLE"
+            await until(pilot, lambda: running.module("arm")["step"] == "SINGLE", "arm stepped")
             await pilot.press("r")
-            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
-            assert (running.module("arm")["run"], running.module("arm")["step"]) == (
-                "RUN",
-                "AUTO",
+            await until(
+                pilot,
+                lambda: (
+                    (running.module("arm")["run"], running.module("arm")["step"]) == ("RUN", "AUTO")
+                ),
+                "arm running again",
             )
             await pilot.press("i")
-            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
-            wait_for(lambda: running.module("arm")["runs"] == "arm_sim", "the stand-in")
+            await until(pilot, lambda: running.module("arm")["runs"] == "arm_sim", "the stand-in")
             await pilot.press("i")
-            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
-            wait_for(lambda: running.module("arm")["runs"] == "arm", "the arm again")
+            await until(pilot, lambda: running.module("arm")["runs"] == "arm", "the arm again")
             # a command to the arm needs the override: refused, then given
             await pilot.press("c")
             await pilot.press(*"POWER level=0.5", "enter")
-            await pilot.pause(0.1)
-            assert "arm is commanded by top" in str(app.query_one("#message").render())
+            await until(pilot, lambda: "arm is commanded by top" in said(app), "override needed")
             await pilot.press("c")
             await pilot.press(*"POWER levl=0.5", "enter")
-            await pilot.pause(0.1)
-            assert "did you mean 'level'" in str(app.query_one("#message").render())
+            await until(pilot, lambda: "did you mean 'level'" in said(app), "a misspelt parameter")
             await pilot.press("c")
             await pilot.press(*"POWER level=0.5 --override", "enter")
-            await pilot.pause(0.1)
-            assert "top is in manual override" in str(app.query_one("#message").render())
+            await until(pilot, lambda: "top is in manual override" in said(app), "override told")
             # slow-down
             await pilot.press("plus")
-            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
-            assert running.json()["processes"]["p1"]["slow"] == 2.0  # type: ignore[index]
+            await until(pilot, lambda: slowed(running) == 2.0, "p1 slowed x2")
             await pilot.press("minus")
-            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
-            assert running.json()["processes"]["p1"]["slow"] == 1.0  # type: ignore[index]
-            await pilot.pause(0.3)
+            await until(pilot, lambda: slowed(running) == 1.0, "p1 at x1 again")
             # the periodicity panel (issue 24 item 4): each process paced at 20 ms
             panel = app.query_one("#periodicity", DataTable)
             await until(
@@ -195,30 +207,20 @@ def test_the_role_limits_the_keys_and_requests_are_answered_on_screen() -> None:
     async def drive() -> tuple[str, str]:
         app = Monitor(layout, system.segment, interval=0.1, role="crew")
         async with app.run_test(size=(160, 40)) as pilot:
-            await pilot.pause(0.3)
-            assert app.selected() == "sec" and app.sub_title.endswith(" as crew")
+            await until(pilot, lambda: app.selected() == "sec", "sec selected")
+            assert app.sub_title.endswith(" as crew")
             await pilot.press("s")
-            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
-            message = str(app.query_one("#message").render())
-            assert "refused: changing sec's mode needs override on sec" in message
+            await until(pilot, lambda: "refused: " in said(app), "the key refused")
+            assert "refused: changing sec's mode needs override on sec" in said(app)
             assert system.module("sec")["run"] == "RUN"
-            for _ in range(900):  # ct asks at the first sump: seconds, more on a busy host
-                await pilot.pause(0.1)
-                if "ct asks:" in str(app.query_one("#requests").render()):
-                    break
-            else:
-                raise AssertionError("ct never asked for the conveyor tail within 90 s")
+            # ct asks at the first sump: seconds, more on a busy host
+            await until(pilot, lambda: "ct asks:" in requests(app), "ct asks for the tail", 180)
             asking = screen_text(app)
             await pilot.press("a")
-            await pilot.pause(0.1)
-            assert "answered tail: sent oi.TAIL_IN_POSITION" in str(
-                app.query_one("#message").render()
-            )
+            await until(pilot, lambda: "answered tail: " in said(app), "the answer said")
+            assert "answered tail: sent oi.TAIL_IN_POSITION" in said(app)
             wait_for(lambda: system.module("ct")["status"] == "DONE", "ct done", 60)
-            for _ in range(100):  # the screen refreshes every 0.1 s
-                await pilot.pause(0.1)
-                if not str(app.query_one("#requests").render()).strip():
-                    break
+            await until(pilot, lambda: not requests(app).strip(), "the request gone")
             return asking, screen_text(app)
 
     try:
@@ -250,7 +252,7 @@ def test_the_status_column_shows_why_a_module_is_in_error() -> None:
             async def drive() -> str:
                 app = Monitor(layout, system.segment, interval=0.1)
                 async with app.run_test(size=(150, 20)) as pilot:
-                    await pilot.pause(0.3)
+                    await until(pilot, lambda: "OPERATOR_REFUSED" in screen_text(app), "why")
                     return screen_text(app)
 
             text = asyncio.run(drive())
@@ -282,36 +284,29 @@ def test_an_operator_modules_requests_show_their_text_and_a_answers_them() -> No
     async def drive() -> tuple[str, str]:
         app = Monitor(layout, system.segment, interval=0.1)
         async with app.run_test(size=(160, 40)) as pilot:
-            for _ in range(300):
-                await pilot.pause(0.1)
-                if str(app.query_one("#requests").render()).count(" asks op:") == 2:
-                    break
-            else:
-                raise AssertionError("fx and tl never both asked op within 30 s")
-            shown = str(app.query_one("#requests").render())
+            await until(pilot, lambda: requests(app).count(" asks op:") == 2, "fx and tl ask op")
+            shown = requests(app)
             table = app.query_one(DataTable)
             table.move_cursor(row=[m for m, _ in tree_order(layout)].index("tl"))
             await pilot.press("a")
-            await pilot.pause(0.1)
-            assert "op/tl LOAD_PROBE: DONE | ERROR [REASON]" in str(
-                app.query_one("#send", Input).placeholder
-            )
+            await until(pilot, lambda: "op/tl " in form(app), "the answer form for tl")
+            assert "op/tl LOAD_PROBE: DONE | ERROR [REASON]" in form(app)
             await pilot.press("enter")
-            await pilot.pause(0.1)
-            said = str(app.query_one("#message").render())
+            await until(pilot, lambda: "answered op/tl" in said(app), "tl answered")
+            first = said(app)
             wait_for(lambda: system.module("tl")["status"] == "DONE", "tl done", 30)
             assert system.module("fx")["status"] == "EXECUTING", "fx's request is still open"
             assert system.module("op/fx")["state"] == "ASKING"
             table.move_cursor(row=[m for m, _ in tree_order(layout)].index("fx"))
             await pilot.press("a", *["backspace"] * 4, *"ERROR", "space", *"REFUSED", "enter")
-            await pilot.pause(0.1)
-            return shown, said + "\n" + str(app.query_one("#message").render())
+            await until(pilot, lambda: "answered op/fx" in said(app), "fx answered")
+            return shown, first + "\n" + said(app)
 
     try:
         for command in (("fx", "PLACE"), ("tl", "LOAD", "probe=7")):
             assert system.ctl("send", *command).returncode == 0
-        shown, said = asyncio.run(drive())
-        assert said.splitlines() == [
+        shown, answers = asyncio.run(drive())
+        assert answers.splitlines() == [
             "answered op/tl: LOAD_PROBE #2 DONE",
             "answered op/fx: PLACE_PART #2 ERROR (REFUSED)",
         ]
@@ -344,48 +339,35 @@ def test_the_answer_form_takes_a_tasks_results_and_refuses_what_does_not_fit() -
     async def drive() -> tuple[str, str, str]:
         app = Monitor(layout, system.segment, interval=0.1)
         async with app.run_test(size=(200, 40)) as pilot:
-            await until(
-                pilot, lambda: " asks op:" in str(app.query_one("#requests").render()), "fx asks op"
-            )
+            await until(pilot, lambda: " asks op:" in requests(app), "fx asks op")
             table = app.query_one(DataTable)
             table.move_cursor(row=[m for m, _ in tree_order(layout)].index("fx"))
             await pilot.press("a")
-            await pilot.pause(0.1)
-            form = str(app.query_one("#send", Input).placeholder)
+            await until(pilot, lambda: "op/fx " in form(app), "the answer form for fx")
+            shown = form(app)
             await pilot.press(*["backspace"] * 4, *"DONE gap=9 verdict=KEEP count=1 ok=true note=x")
             await pilot.press("enter")
-            await pilot.pause(0.1)
-            refused = str(app.query_one("#message").render())
+            await until(pilot, lambda: "result gap" in said(app), "the gap refused")
+            refused = said(app)
             await pilot.press("a", *["backspace"] * 4, *f"DONE {good}", "enter")
-            await pilot.pause(0.1)
-            return form, refused, str(app.query_one("#message").render())
+            await until(pilot, lambda: "answered op/fx" in said(app), "fx answered")
+            return shown, refused, said(app)
 
     try:
         assert system.ctl("send", "fx", "CHECK").returncode == 0
-        form, refused, said = asyncio.run(drive())
+        placeholder, refused, answer = asyncio.run(drive())
         wait_for(lambda: system.module("fx")["status"] == "DONE", "fx done", 30)
         results = system.module("fx")["results"]
     finally:
         system.stop()
         shutil.rmtree(scratch, ignore_errors=True)
-    assert form.startswith(
+    assert placeholder.startswith(
         "op/fx MEASURE: DONE gap=0.0..5.0 verdict=KEEP|REWORK|SCRAP count=1..9 ok=true|false "
         "note=text | ERROR [REASON]"
-    ), form
+    ), placeholder
     assert "result gap is 9.0: above its maximum 5.0" in refused, refused
-    assert said == f"answered op/fx: MEASURE #2 DONE {good}", said
+    assert answer == f"answered op/fx: MEASURE #2 DONE {good}", answer
     assert results == {"gap": 1.5, "reworked": True}
-
-
-async def until(pilot: Any, condition: Any, what: str, deadline: float = 30.0) -> None:
-    """Let the app run until `condition()` holds; fail naming `what` after `deadline` s."""
-    import time
-
-    end = time.monotonic() + deadline
-    while not condition():
-        if time.monotonic() > end:
-            raise AssertionError(f"gave up waiting: {what}")
-        await pilot.pause(0.05)
 
 
 def test_the_devices_panel_shows_each_device_up_then_lost_with_its_counts(

@@ -14,7 +14,6 @@ import os
 import re
 import shutil
 import threading
-import time
 from collections.abc import Awaitable, Callable, Iterator
 from contextlib import contextmanager
 from itertools import count
@@ -26,10 +25,12 @@ import pytest
 
 pytest.importorskip("textual")
 
+from conftest import until  # noqa: E402
 from rich.text import Text  # noqa: E402
 from test_monitor import screen_text  # noqa: E402
 from textual.pilot import Pilot  # noqa: E402
 from textual.widgets import DataTable, Input, Static  # noqa: E402
+from textual.widgets.data_table import ColumnKey  # noqa: E402
 
 from rcsgen.tools import monitor_devices, monitor_periodicity  # noqa: E402
 from rcsgen.tools.harness import Harness, generate, import_package  # noqa: E402
@@ -65,14 +66,6 @@ def system(package: ModuleType) -> Iterator[tuple[Harness, str]]:
     harness.close()
     named.close()
     assert not Path(f"/dev/shm/{segment}").exists()
-
-
-async def until(pilot: Pilot[None], ok: Callable[[], bool], what: str, limit: float = 20) -> None:
-    """Wait (bounded, generous for a busy host) until `ok()`; the screen keeps refreshing."""
-    end = time.monotonic() + limit
-    while not ok():
-        assert time.monotonic() < end, f"not seen within {limit:g} s: {what}"
-        await pilot.pause(0.02)
 
 
 @contextmanager
@@ -116,7 +109,8 @@ def drive(
     async def run() -> None:
         app = Monitor(harness.layout, segment, interval=0.05)
         async with app.run_test(size=(160, 40)) as pilot:
-            await pilot.pause(0.05)
+            table = app.query_one("#modules", DataTable)
+            await until(pilot, lambda: table.row_count > 0, "the first screen drawn")
             await steps(app, pilot)
 
     asyncio.run(run())
@@ -391,7 +385,8 @@ def test_the_devices_panel_draws_a_row_per_declared_device_and_a_missing_one_as_
         async with app.run_test(size=(160, 10)) as pilot:
             panel = app.query_one(monitor_devices.DevicesPanel)
             panel.show({"tank": {"state": "LOST", "last_error": LONG_ERROR}})
-            await pilot.pause(0.05)
+            error = panel.columns[ColumnKey("last_error")]
+            await until(pilot, lambda: error.content_width >= len(LONG_ERROR), "the column grown")
             rows = {
                 name: {key: panel.get_cell(name, key).plain for key, _ in monitor_devices.COLUMNS}
                 for name in ("tank", "pumps")

@@ -32,7 +32,7 @@ from typing import Any
 import pytest
 import yaml
 from click.testing import CliRunner
-from conftest import wait_for
+from conftest import read_whole, until, wait_for
 
 from rcsgen.cli import main as rcsgen_main
 from rcsgen.compiler.diagnostics import SpecError
@@ -232,7 +232,7 @@ def test_what_the_console_takes_reaches_the_block(miner: Miner) -> None:
     layout, buf = miner.layout, miner.block_view()
     code, out, err = miner.ctl("--role", "crew", "send", "sec", "BOX_CUT", "depth=1.5")
     assert (code, err) == (0, "") and out.startswith("sent sec.BOX_CUT depth=1.5 #"), out
-    assert layout.COMMAND_IN["sec"].read(buf)["arg_depth"] == 1.5
+    assert read_whole(layout.COMMAND_IN["sec"], buf)["arg_depth"] == 1.5
     code, out, err = miner.ctl("--role", "engineer", "force", "world.slip=0.25")
     assert (code, err) == (0, ""), err
     wait_for(lambda: miner.json()["world"]["slip"] == 0.25, "slip forced")
@@ -577,12 +577,9 @@ def drive_monitor(miner: Miner, case: dict[str, Any]) -> None:
     def cell(app: Any, table: str, row: str, column: str) -> str:
         return str(app.query_one(table).get_cell(row, column))
 
-    async def until(pilot: Any, condition: Callable[[], bool], what: str) -> None:
-        for _ in range(400):  # 20 s at most
-            if condition():
-                return
-            await pilot.pause(0.05)
-        raise AssertionError(f"gave up waiting: {what}")
+    def drawn(app: Any) -> bool:
+        """The monitor has drawn its first screen: its table has rows."""
+        return bool(app.query_one("#modules").row_count)
 
     async def hammer() -> None:
         """Torn reads while the pilot runs, from another thread, on two records no module
@@ -604,7 +601,7 @@ def drive_monitor(miner: Miner, case: dict[str, Any]) -> None:
 
         app = Monitor(layout, miner.segment, interval=0.05, role="engineer")
         async with app.run_test(size=(170, 60)) as pilot:
-            await pilot.pause(0.2)
+            await until(pilot, lambda: drawn(app), "the first screen drawn")
             thread = threading.Thread(target=flip)
             thread.start()
             try:
@@ -637,15 +634,15 @@ def drive_monitor(miner: Miner, case: dict[str, Any]) -> None:
 
     async def whole_values() -> None:
         """Values longer than the first draw's (the command, EXECUTING, #11) shown whole."""
-        if layout.STATUS_OUT["sec"].read(buf)["status"] != 1:  # not EXECUTING: give it work
+        if read_whole(layout.STATUS_OUT["sec"], buf)["status"] != 1:  # not EXECUTING: give it work
             assert miner.ctl("--role", "crew", "send", "sec", "BOX_CUT", "depth=1.5")[0] == 0
         app = Monitor(layout, miner.segment, interval=0.05, role="engineer")
         async with app.run_test(size=(200, 60)) as pilot:
-            await pilot.pause(0.3)
+            await until(pilot, lambda: drawn(app), "the first screen drawn")
             for _ in range(10):  # wm's numbers climb past 9 (its module keeps NEW_CUT short)
                 assert miner.ctl("--role", "engineer", "send", "wm", "INIT", "--override")[0] == 0
             assert miner.ctl("--role", "engineer", "run", "sb")[0] == 0
-            number = int(layout.COMMAND_IN["wm"].read(buf)["command_num"])
+            number = int(read_whole(layout.COMMAND_IN["wm"], buf)["command_num"])
             assert number >= 11
             await until(pilot, lambda: cell(app, "#modules", "wm", "cnum") == str(number), "#")
             await until(
@@ -657,7 +654,7 @@ def drive_monitor(miner: Miner, case: dict[str, Any]) -> None:
             sec = next(line for line in shown.splitlines() if line.split()[:1] == ["sec"])
             assert sec.split()[1:4] == [
                 "BOX_CUT",
-                str(layout.COMMAND_IN["sec"].read(buf)["command_num"]),
+                str(read_whole(layout.COMMAND_IN["sec"], buf)["command_num"]),
                 "EXECUTING",
             ], sec
 
@@ -665,15 +662,16 @@ def drive_monitor(miner: Miner, case: dict[str, Any]) -> None:
         """The send form refuses what the contract refuses, and writes nothing."""
         app = Monitor(layout, miner.segment, interval=0.1, role="engineer")
         async with app.run_test(size=(170, 40)) as pilot:
-            await pilot.pause(0.2)
+            await until(pilot, lambda: drawn(app), "the first screen drawn")
             assert app.selected() == "sec"
             written = miner.operator_bytes()
             await pilot.press("c")
-            await pilot.pause(0.05)
-            assert "BOX_CUT depth=" in str(app.query_one("#send").placeholder)
-            app.query_one("#send").value = case["form"]  # typed (keys: test_monitor.py)
+            form = app.query_one("#send")
+            await until(pilot, lambda: "BOX_CUT" in str(form.placeholder), "the form for sec")
+            assert "BOX_CUT depth=" in str(form.placeholder)
+            form.value = case["form"]  # typed (keys: test_monitor.py)
             await pilot.press("enter")
-            await pilot.pause(0.1)
+            await until(pilot, lambda: str(app.query_one("#message").render()), "the form said")
             said = str(app.query_one("#message").render())
             assert case["says"] in said, said
             assert miner.operator_bytes() == written
@@ -685,12 +683,8 @@ def drive_monitor(miner: Miner, case: dict[str, Any]) -> None:
         try:
             app = Monitor(layout, miner.segment, interval=0.05, world=("tread_stalled", "pose_x"))
             async with app.run_test(size=(170, 40)) as pilot:
-                shown = ""
-                for _ in range(100):
-                    await pilot.pause(0.05)
-                    shown = screen(app)
-                    if "FORCED" in shown:
-                        break
+                await until(pilot, lambda: "FORCED" in screen(app), "the forced field drawn")
+                shown = screen(app)
                 row = next(line for line in shown.splitlines() if "tread_stalled" in line)
                 assert row.split()[:3] == ["tread_stalled", "true", "FORCED"], row
                 assert any(line.split()[:1] == ["pose_x"] for line in shown.splitlines())

@@ -22,7 +22,7 @@ from types import ModuleType
 from typing import Any
 
 import pytest
-from conftest import wait_for
+from conftest import read_whole, wait_for
 from support.running import alive
 
 from rcsgen.tools.harness import Harness, import_package
@@ -62,7 +62,7 @@ def launched(package: ModuleType) -> Iterator[Any]:
     launcher = launcher_module.Launcher(system, f"rcsgen_pl_{os.getpid()}_{next(_names)}")
     launcher.start()
     buf = launcher.block.buf
-    pids = [int(layout.PROCESSES[p].read(buf)["pid"]) for p in layout.PROCESSES]
+    pids = [int(read_whole(layout.PROCESSES[p], buf)["pid"]) for p in layout.PROCESSES]
     try:
         yield launcher
     finally:
@@ -95,10 +95,10 @@ def test_a_vehicle_lost_mid_bound_leaves_the_survivor_to_go_on_alone(
     override = runtime(package, "rcs.override")
 
     def world(name: str) -> object:
-        return layout.WORLD[name].read(buf)[name]
+        return read_whole(layout.WORLD[name], buf)[name]
 
     def status(module: str) -> tuple[str, str]:
-        values = layout.STATUS_OUT[module].read(buf)
+        values = read_whole(layout.STATUS_OUT[module], buf)
         state = layout.STATE_NAMES[module][values["state"]]
         return contract.STATUS_NAMES[values["status"]], state
 
@@ -107,8 +107,8 @@ def test_a_vehicle_lost_mid_bound_leaves_the_survivor_to_go_on_alone(
 
     def working(module: str) -> str:
         """The command `module` has taken up and is executing ('' when none)."""
-        sent = layout.COMMAND_IN[module].read(buf)
-        values = layout.STATUS_OUT[module].read(buf)
+        sent = read_whole(layout.COMMAND_IN[module], buf)
+        values = read_whole(layout.STATUS_OUT[module], buf)
         taken = values["status_num"] == sent["command_num"]
         running = contract.STATUS_NAMES[values["status"]] == "EXECUTING"
         return layout.COMMAND_NAMES[module][sent["command"]] if taken and running else ""
@@ -129,7 +129,7 @@ def test_a_vehicle_lost_mid_bound_leaves_the_survivor_to_go_on_alone(
     watch(launched, lambda: status("sec") == ("EXECUTING", "A_ALONE"), "the section: A_ALONE")
     assert "pb died (exit -9)" in launched.events
     assert set(override.overrides(layout, buf)) == {f"bravo_{name}" for name in SAFE}
-    halted = layout.COMMAND_IN["bravo"].read(buf)
+    halted = read_whole(layout.COMMAND_IN["bravo"], buf)
     assert layout.COMMAND_NAMES["bravo"][halted["command"]] == "HALT", "the section halted it"
     # The survivor drives on: its throttle is its own, and it gets further.
     before = float(world("alpha_x"))  # type: ignore[arg-type]

@@ -21,7 +21,7 @@ from pathlib import Path
 from types import ModuleType
 
 import pytest
-from conftest import wait_for
+from conftest import read_whole, wait_for
 from support.running import console_status, segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
@@ -81,13 +81,13 @@ def launched(duo: Path, package: ModuleType) -> Iterator[Callable[..., object]]:
 
 
 def status(layout: ModuleType, buf: memoryview, module: str) -> dict[str, object]:
-    return layout.STATUS_OUT[module].read(buf)
+    return read_whole(layout.STATUS_OUT[module], buf)
 
 
 def command_to(layout: ModuleType, buf: memoryview, module: str, command: str) -> None:
     """Write a command to a root, as an operator does."""
     record = layout.COMMAND_IN[module]
-    number = record.read(buf)["command_num"] + 1
+    number = read_whole(record, buf)["command_num"] + 1
     record.write(buf, command_num=number, command=layout.COMMAND_NAMES[module].index(command))
 
 
@@ -202,13 +202,13 @@ def test_a_killed_process_puts_the_supervisors_of_its_modules_in_their_safe_stat
     launcher.children["p2"].popen.send_signal(signal.SIGKILL)
     wait_for(lambda: status(layout, buf, "top")["status"] == 3, "top reports ERROR")
     assert status(layout, buf, "top")["error_num"] == 1
-    sent = layout.COMMAND_IN["arm"].read(buf)
+    sent = read_whole(layout.COMMAND_IN["arm"], buf)
     assert layout.COMMAND_NAMES["arm"][sent["command"]] == "HALT"
-    record = layout.PROCESSES["p1"].read(buf)
+    record = read_whole(layout.PROCESSES["p1"], buf)
     assert record["lost"] == 0b10, "p1 reports p2 (index 1) lost"
     launcher.poll()
     assert any(e.startswith("p2 died") for e in launcher.events)
-    assert layout.PROCESSES["p2"].read(buf)["state"] == 4  # DEAD
+    assert read_whole(layout.PROCESSES["p2"], buf)["state"] == 4  # DEAD
 
 
 def test_a_restarted_process_resumes_without_sending_init_again(
@@ -221,7 +221,7 @@ def test_a_restarted_process_resumes_without_sending_init_again(
     layout, buf = runtime(package, "layout"), launcher.block.buf
     command_to(layout, buf, "top", "RUN")
     wait_for(lambda: status(layout, buf, "arm")["state"] == 2, "arm holding (RUN S1)")
-    sent_before = layout.COMMAND_IN["top"].read(buf)
+    sent_before = read_whole(layout.COMMAND_IN["top"], buf)
     first = launcher.children["p1"].popen.pid
     launcher.children["p1"].popen.send_signal(signal.SIGKILL)
     wait_for(  # once p2 has seen p1 dead (Launcher._restart_when_seen)
@@ -229,12 +229,12 @@ def test_a_restarted_process_resumes_without_sending_init_again(
     )
     assert launcher.children["p1"].popen.pid != first
     wait_for(lambda: layout.PROCESSES["p1"].read(buf)["state"] == 2, "the restarted p1 running")
-    beat = layout.PROCESSES["p1"].read(buf)["heartbeat"]
+    beat = read_whole(layout.PROCESSES["p1"], buf)["heartbeat"]
     wait_for(
         lambda: layout.PROCESSES["p1"].read(buf)["heartbeat"] >= beat + 10,
         "ten cycles of the restarted p1",
     )
-    assert layout.COMMAND_IN["top"].read(buf) == sent_before, "no INIT re-sent to top"
+    assert read_whole(layout.COMMAND_IN["top"], buf) == sent_before, "no INIT re-sent to top"
     top = status(layout, buf, "top")
     assert (top["status"], layout.STATE_NAMES["top"][top["state"]]) == (1, "S1"), top
     assert status(layout, buf, "arm")["state"] == 2, "the arm still holds"
@@ -276,10 +276,10 @@ def test_the_watchdog_halts_the_roots_after_a_cycle_far_too_long(
     layout.WORLD["slow"].write(buf, slow=True)  # top's hook now naps 0.15 s (7.5 periods)
     wait_for(lambda: layout.PROCESSES["p1"].read(buf)["watchdog_trips"] > 0, "the watchdog trips")
     layout.WORLD["slow"].write(buf, slow=False)
-    sent = layout.COMMAND_IN["top"].read(buf)
+    sent = read_whole(layout.COMMAND_IN["top"], buf)
     assert layout.COMMAND_NAMES["top"][sent["command"]] == "HALT"
     wait_for(lambda: layout.WORLD["arm_power"].read(buf)["arm_power"] == 0.0, "arm halted")
-    assert layout.PROCESSES["p1"].read(buf)["load_warnings"] > 0
+    assert read_whole(layout.PROCESSES["p1"], buf)["load_warnings"] > 0
 
 
 # ---------------------------------------------------------------- the simulation switch

@@ -24,7 +24,7 @@ from types import ModuleType
 from typing import Any
 
 import pytest
-from conftest import wait_for
+from conftest import until, wait_for
 
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.ir import IRSystem
@@ -69,13 +69,6 @@ def listening(port: int) -> bool:
         return probe.connect_ex(("127.0.0.1", port)) == 0
 
 
-async def until(ok: Callable[[], bool], what: str, limit: float = 30) -> None:
-    end = time.monotonic() + limit
-    while not ok():
-        assert time.monotonic() < end, f"not seen within {limit:g} s: {what}"
-        await asyncio.sleep(0.02)
-
-
 def serve(
     rig: Path,
     tmp_path: Path,
@@ -110,7 +103,9 @@ def serve(
         serving = asyncio.create_task(softplc._serve(args, plant, devices))
         try:
             await until(
-                lambda: ready.is_file() and ready.read_text().count("\n") == len(names), "ready"
+                None,
+                lambda: ready.is_file() and ready.read_text().count("\n") == len(names),
+                "ready",
             )
             ports = [int(line) for line in ready.read_text().split()]
             return await asyncio.to_thread(client, *ports, control, plant)

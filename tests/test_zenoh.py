@@ -23,7 +23,7 @@ from types import ModuleType
 from typing import Any
 
 import pytest
-from conftest import wait_for
+from conftest import read_whole, until, wait_for
 from support.running import attached, listening
 
 from rcsgen.tools.harness import import_package
@@ -706,12 +706,12 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
     try:
         # INIT rippled from vg (pc1) to pp (pc2) and pp's DONE came back into pc1's block
         def pp_done_in(block: object) -> bool:
-            status = layout.STATUS_OUT["pp"].read(block.buf)
+            status = read_whole(layout.STATUS_OUT["pp"], block.buf)
             return status["status"] == contract.DONE and status["status_num"] >= 1
 
         wait_for(lambda: pp_done_in(pc2), "pp's INIT done on pc2")
         wait_for(lambda: pp_done_in(pc1), "pp's status mirrored on pc1")
-        assert layout.COMMAND_IN["pp"].read(pc2.buf)["command_num"] >= 1  # written by vg
+        assert read_whole(layout.COMMAND_IN["pp"], pc2.buf)["command_num"] >= 1  # written by vg
         # an operator's console on a third "host", attached through Zenoh to pc2 only
         status = ctl("--connect", f"tcp/127.0.0.1:{two_hosts['ports']['pc2']}", "status")
         assert status.returncode == 0, status.stderr
@@ -729,7 +729,7 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
         lost_bit = 1 << list(layout.PROCESSES).index("pc2")
 
         def pc2_lost() -> bool:
-            return bool(layout.PROCESSES["pc1"].read(pc1.buf)["lost"] & lost_bit)
+            return bool(read_whole(layout.PROCESSES["pc1"], pc1.buf)["lost"] & lost_bit)
 
         assert not pc2_lost()
         hosts["pc2"].send_signal(signal.SIGSTOP)  # a partition: pc2 silent, its link open
@@ -740,7 +740,7 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
             lambda: layout.STATUS_OUT["sec"].read(pc1.buf)["status"] == contract.ERROR,
             "the root, sec, reports ERROR",
         )
-        sec = layout.STATUS_OUT["sec"].read(pc1.buf)
+        sec = read_whole(layout.STATUS_OUT["sec"], pc1.buf)
         assert (sec["status"], sec["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
         hosts["pc2"].send_signal(signal.SIGCONT)
         wait_for(lambda: not pc2_lost(), "pc2 re-joins")
@@ -780,7 +780,7 @@ def test_a_latch_or_force_made_on_any_host_holds_on_the_host_that_writes_the_act
         return wait_for(attached(block_module, layout, segments[name]), f"{name}'s segment")
 
     def world(block: object, field: str) -> object:
-        return layout.WORLD[field].read(block.buf)[field]
+        return read_whole(layout.WORLD[field], block.buf)[field]
 
     def moving(block: object) -> bool:
         return any(world(block, f) != v for f, v in layout.SAFE_VALUES.items())
@@ -798,14 +798,14 @@ def test_a_latch_or_force_made_on_any_host_holds_on_the_host_that_writes_the_act
         wait_for(lambda: moving(pc1), "pc1 drives the miner", deadline=60)
         override.force(layout, mine, "boom_rate_cmd", 0.25)
         wait_for(lambda: world(pc1, "boom_rate_cmd") == 0.25, "the force holds on pc1")
-        beat = layout.PROCESSES["pc1"].read(pc1.buf)["heartbeat"]
+        beat = read_whole(layout.PROCESSES["pc1"], pc1.buf)["heartbeat"]
         wait_for(lambda: layout.PROCESSES["pc1"].read(pc1.buf)["heartbeat"] > beat + 5, "pc1")
         assert world(pc1, "boom_rate_cmd") == 0.25, "pc1's module does not overwrite it"
         assert override.overrides(layout, pc1.buf) == {"boom_rate_cmd": ("FORCED", 0.25)}
         override.latch_safe(layout, mine, layout.SAFE_VALUES)
         wait_for(lambda: at_safe(pc1), "every actuator latched safe on pc1, the writer")
         wait_for(lambda: override.overrides(layout, pc2.buf) == safe, "and mirrored on pc2")
-        beat = layout.PROCESSES["pc1"].read(pc1.buf)["heartbeat"]
+        beat = read_whole(layout.PROCESSES["pc1"], pc1.buf)["heartbeat"]
         wait_for(lambda: layout.PROCESSES["pc1"].read(pc1.buf)["heartbeat"] > beat + 5, "pc1")
         assert at_safe(pc1), "held while pc1 runs its BOX_CUT"
         assert override.reset(layout, mine) == list(layout.SAFE_VALUES)
@@ -865,15 +865,15 @@ def test_the_monitor_attaches_through_zenoh(
         assert app.ctl.modules()["pp"]["command"] == "INIT"
         seen = []
         async with app.run_test(size=(160, 40)) as pilot:
-            for _ in range(50):  # until pp (on pc2) has reported its INIT
-                await pilot.pause(0.1)
-                if app.ctl.modules()["pp"].get("status") == "DONE":
-                    break
+            await until(  # pp (on pc2) has reported its INIT
+                pilot, lambda: app.ctl.modules()["pp"].get("status") == "DONE", "pp's INIT DONE"
+            )
             seen.append(app.ctl.modules()["pp"].get("status"))
             while app.selected() != "pp":
                 await pilot.press("down")
             await pilot.press("s")  # stop pp, on pc2, from here
-            await pilot.pause(0.3)
+            message = app.query_one("#message")
+            await until(pilot, lambda: str(message.render()) == "pp: STOP", "pp: STOP said")
             seen.append(app.sub_title)
         return seen
 
@@ -966,16 +966,16 @@ def test_a_cut_link_is_detected_contained_and_mended(
     lost_bit = 1 << list(layout.PROCESSES).index("pc2")
 
     def pc2_lost_on_pc1() -> bool:
-        return bool(layout.PROCESSES["pc1"].read(pc1.buf)["lost"] & lost_bit)
+        return bool(read_whole(layout.PROCESSES["pc1"], pc1.buf)["lost"] & lost_bit)
 
     def pc1_state_on_pc2() -> int:
-        return int(layout.PROCESSES["pc1"].read(pc2.buf)["state"])
+        return int(read_whole(layout.PROCESSES["pc1"], pc2.buf)["state"])
 
     override = rcs(miner, "rcs.override")
 
     def latched_safe(block: object) -> bool:
         safe = {f: ("SAFE", v) for f, v in layout.SAFE_VALUES.items()}
-        world = {f: layout.WORLD[f].read(block.buf)[f] for f in layout.SAFE_VALUES}
+        world = {f: read_whole(layout.WORLD[f], block.buf)[f] for f in layout.SAFE_VALUES}
         return override.overrides(layout, block.buf) == safe and world == layout.SAFE_VALUES
 
     try:
@@ -991,7 +991,7 @@ def test_a_cut_link_is_detected_contained_and_mended(
                 lambda: layout.STATUS_OUT["sec"].read(pc1.buf)["status"] == contract.ERROR,
                 "the root, sec, reports ERROR",
             )
-            sec = layout.STATUS_OUT["sec"].read(pc1.buf)
+            sec = read_whole(layout.STATUS_OUT["sec"], pc1.buf)
             assert (sec["status"], sec["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
             wait_for(lambda: latched_safe(pc1), "pc1 latches every actuator it writes")
             wait_for(lambda: pc1_state_on_pc2() == contract.DEAD, "pc2 sees pc1's token go")

@@ -23,7 +23,7 @@ from types import ModuleType
 from typing import Any
 
 import pytest
-from conftest import wait_for
+from conftest import read_whole, wait_for
 from support.running import alive, attached, listening
 
 from rcsgen.runtime.operate.launcher import not_ready
@@ -168,8 +168,9 @@ def test_a_host_whose_processes_do_not_all_hear_each_other_is_refused_safe_and_c
         while starting.is_alive():  # pc1's own block, as long as it is there
             pc1 = pc1 or attached(rcs(miner, "rcs.block"), layout, f"{segment}_pc1")()
             if pc1 is not None:
-                seen.append({f: layout.WORLD[f].read(pc1.buf)[f] for f in layout.SAFE_VALUES})
-                cycles = layout.PROCESSES["pc1"].read(pc1.buf)["heartbeat"]
+                world = {f: read_whole(layout.WORLD[f], pc1.buf)[f] for f in layout.SAFE_VALUES}
+                seen.append(world)
+                cycles = read_whole(layout.PROCESSES["pc1"], pc1.buf)["heartbeat"]
                 assert cycles == 0, "pc1 ran a cycle before it heard pc2"
             time.sleep(0.01)
         starting.join()
@@ -225,7 +226,7 @@ def test_a_killed_launcher_s_children_latch_every_actuator_and_remove_every_bloc
         wait_for(lambda: layout.PROCESSES["pc1"].read(buf)["heartbeat"] > 2, "pc1 running", 60)
         wait_for(lambda: layout.PROCESSES["pc2"].read(buf)["heartbeat"] > 2, "pc2 heard", 60)
         wait_for(lambda: os.path.exists(f"/dev/shm/{segment}"), "the launcher's block")
-        pids = [int(layout.PROCESSES[p].read(buf)["pid"]) for p in ("pc1", "pc2")]
+        pids = [int(read_whole(layout.PROCESSES[p], buf)["pid"]) for p in ("pc1", "pc2")]
         ports = {port}
         for pid in pids:  # each child's own listening port, from its command line
             words = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
@@ -236,7 +237,7 @@ def test_a_killed_launcher_s_children_latch_every_actuator_and_remove_every_bloc
             lambda: set(override.overrides(layout, buf)) == set(layout.SAFE_VALUES),
             "every actuator latched safe in pc1's block",
         )
-        values = {f: layout.WORLD[f].read(buf)[f] for f in layout.SAFE_VALUES}
+        values = {f: read_whole(layout.WORLD[f], buf)[f] for f in layout.SAFE_VALUES}
         assert values == layout.SAFE_VALUES
         for pid in pids:
             wait_for(lambda pid=pid: not alive(pid), f"child {pid} gone", deadline=30)

@@ -30,7 +30,7 @@ from types import ModuleType
 from typing import Any
 
 import pytest
-from conftest import wait_for
+from conftest import read_whole, wait_for
 from support.running import listening
 
 from rcsgen.runtime.operate.deploy import DeployError, load
@@ -268,10 +268,10 @@ def test_a_refused_peer_is_never_heard_and_the_outputs_stay_safe(
         lost_bit = 1 << list(layout.PROCESSES).index("pc2")
 
         def pc2_lost() -> bool:
-            return bool(layout.PROCESSES["pc1"].read(buf)["lost"] & lost_bit)
+            return bool(read_whole(layout.PROCESSES["pc1"], buf)["lost"] & lost_bit)
 
         def pc2_beats() -> int:
-            return int(layout.PROCESSES["pc2"].read(buf)["heartbeat"])
+            return int(read_whole(layout.PROCESSES["pc2"], buf)["heartbeat"])
 
         def safe() -> bool:
             latched = override.overrides(layout, buf)
