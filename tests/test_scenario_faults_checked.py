@@ -66,6 +66,9 @@ def test_a_device_fault_names_a_device_served_and_declared(hil, tmp_path) -> Non
     assert said(tmp_path, hil, "devices: {plx: {}}\n") == [
         ("E426", "`miner_hil` has no I/O device `plx`", "did you mean `plc`?")
     ]
+    assert said(tmp_path, hil, "devices: {zzz: {}}\n") == [  # far from every name
+        ("E426", "`miner_hil` has no I/O device `zzz`", "declared devices: `conveyor`, `plc`")
+    ]
 
 
 def test_a_plant_that_is_no_spec_directory_is_named_with_where_it_was_looked_for(
