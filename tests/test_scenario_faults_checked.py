@@ -91,6 +91,12 @@ def test_a_plant_that_is_no_spec_directory_is_named_with_where_it_was_looked_for
         ("E426", "`miner_hil` has no I/O device `plx`"),
         ("E426", "plant `empty` of device `plc` is not a spec directory"),
     ]
+    # a wrong plant first: the devices after it are still served (and may be faulted)
+    fault = "events:\n  - cycle: 2\n    device: {name: conveyor, do: freeze}\n"
+    later = said(tmp_path, hil, "devices:\n  plc: {plant: empty}\n  conveyor: {}\n" + fault)
+    assert [(c, m.split(":")[0]) for c, m, _ in later] == [
+        ("E426", "plant `empty` of device `plc` is not a spec directory")
+    ]
     # a plant that is one: the scenario serves both devices
     (tmp_path / "plant").mkdir()
     (tmp_path / "plant" / "system.yaml").write_text("system: plant\n")
