@@ -249,9 +249,10 @@ def test_a_range_expected_of_a_figure_that_holds_no_number_says_what_to_expect(
 def test_an_operator_script_is_refused_where_its_key_and_its_default_are_written(
     tmp_path: Path, systems: dict[str, IRSystem]
 ) -> None:
-    """The errors of the script as a whole are located at what they are about: `operator:`
-    for a system with no operator module, the `default:` for a default DONE that records no
-    results (not the top of the file)."""
+    """The errors of the script are located at what they are about: `operator:` for a
+    system with no operator module, the `default:` for a default DONE that records no
+    results, an entry's `results:` for results given with ERROR (not the top of the file
+    nor the entry)."""
     head = "scenario: s\ntitle: A scenario\nmax_cycles: 20\n"
     cell = systems["cell"]
     path = written(tmp_path, cell, head + "operator:\n  default: {answer: DONE}\n")
@@ -261,6 +262,10 @@ def test_an_operator_script_is_refused_where_its_key_and_its_default_are_written
     path = written(tmp_path, platoon, head + "operator:\n  default: {answer: DONE}\n")
     _, found = check_scenario(path, platoon)
     assert [(d.code, d.span.line, d.span.col) for d in found.errors] == [("E911", 5, 12)]
+    # results with ERROR: at the results given
+    path = written(tmp_path, platoon, head + LDR + "answer: ERROR, results: {post: 1.0}}\n")
+    _, found = check_scenario(path, platoon)
+    assert [(d.code, d.span.line, d.span.col) for d in found.errors] == [("E911", 6, 51)]
 
 
 def test_what_the_checks_approved_of_the_script_and_the_answers_is_what_runs(
