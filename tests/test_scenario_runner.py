@@ -154,8 +154,9 @@ class Bench:
 
 
 def watch(monkeypatch: pytest.MonkeyPatch, checks: list[list[str]]) -> tuple[Any, Any, Bench]:
-    """A FaultWatch at a 0.1 s cycle over one device (timeout 0.25 s, poll 0.15 s); the
-    block's safe state missing what `checks` says, cycle after cycle (then nothing)."""
+    """A FaultWatch at a 0.1 s cycle over two devices, plc (timeout 0.25 s, poll 0.15 s)
+    and b (1 s, 0.05 s); the block's safe state missing what `checks` says, cycle after
+    cycle (then nothing)."""
     device = SimpleNamespace(timeout=0.25, poll_period=0.15)
     other = SimpleNamespace(timeout=1.0, poll_period=0.05)
     harness = SimpleNamespace(
