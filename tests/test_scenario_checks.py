@@ -296,3 +296,17 @@ def test_what_the_checks_approved_of_the_script_and_the_answers_is_what_runs(
     assert answer.after == 4 and answer.results == (("decision", "HOLD"), ("post", 2.0))
     [event] = scenario.events
     assert event.answer == ("ldr/pl", "DONE", "") and event.answer_results == {}
+
+
+def test_a_report_that_phases_an_operator_module_names_its_clients(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """An operator module answers its clients' tasks and runs no command of its own: the
+    phases of a run are a client's."""
+    assert said(tmp_path, systems["inspection"], "report:\n  phases: op\n") == [
+        (
+            "E285",
+            "`op` is an operator module: it has no phases of its own: name a client",
+            "its clients: fx, tl",
+        )
+    ]

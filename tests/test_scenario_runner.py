@@ -389,3 +389,15 @@ def test_a_console_answer_event_is_written_as_the_scenario_types_it_or_stops_the
     with pytest.raises(runner.ScenarioError) as caught:
         runner._apply(harness, wrong)  # type: ignore[arg-type]
     assert str(caught.value) == "cycle 7: `ldr/pl`: SPOT: result post is -1: below its minimum 0"
+
+
+def test_a_scripted_reply_carries_its_reason():
+    """`reply: {alpha: ERROR(NO_FIX)}` echoes the command with ERROR and the reason NO_FIX;
+    a plain DONE with no reason."""
+    replies: list[tuple[str, str, str]] = []
+    harness = SimpleNamespace(
+        reply=lambda module, status, reason: replies.append((module, status, reason))
+    )
+    runner.reply(harness, "alpha", "ERROR(NO_FIX)")  # type: ignore[arg-type]
+    runner.reply(harness, "op/fx", "DONE")  # type: ignore[arg-type]
+    assert replies == [("alpha", "ERROR", "NO_FIX"), ("op/fx", "DONE", "")]
