@@ -99,6 +99,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_scenario_events_checked",
             "test_scenario_faults_checked",
             "test_scenario_model",
+            "test_scenario_runner",
             "test_scenario_session",
             "test_scenario_verdicts",
             "test_scaffold_edits",

@@ -32,11 +32,35 @@ def test_a_new_system_validates_builds_and_runs(
         "created lamp/scenarios/first_command.yaml",
     ]
     assert rcsgen("validate", "specs", "--strict").exit_code == 0
-    assert "cycle_period: 0.05" in (tmp_path / "specs/lamp/system.yaml").read_text()
+    system = (tmp_path / "specs/lamp/system.yaml").read_text()
+    assert "cycle_period: 0.05" in system
+    assert "\ntitle: Lamp\n" in system  # no --title: the name's
     assert rcsgen("build", "specs").exit_code == 0
     ran = rcsgen("run", "specs/lamp/scenarios/first_command.yaml")
     assert ran.exit_code == 0, ran.output
     assert "lp DONE" in ran.output
+
+
+def test_the_scaffolds_defaults_are_the_commands(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`scaffold.new_system` called with a name alone writes what `rcsgen new system NAME`
+    writes (root `top`, 0.1 s, the name as title), byte for byte."""
+    from rcsgen.tools.scaffold import new_system
+
+    monkeypatch.chdir(tmp_path)
+    assert rcsgen("new", "system", "lamp").exit_code == 0
+    new_system(tmp_path / "api", "lamp")
+    made = sorted(p.relative_to(tmp_path / "specs") for p in (tmp_path / "specs").rglob("*.*"))
+    assert made == sorted(p.relative_to(tmp_path / "api") for p in (tmp_path / "api").rglob("*.*"))
+    assert made == [
+        Path("lamp/scenarios/first_command.yaml"),
+        Path("lamp/system.yaml"),
+        Path("lamp/top.yaml"),
+    ]
+    for rel in made:
+        assert (tmp_path / "api" / rel).read_bytes() == (tmp_path / "specs" / rel).read_bytes()
+    assert "\ncycle_period: 0.1  #" in (tmp_path / "api/lamp/system.yaml").read_text()
 
 
 def test_a_controller_joins_its_supervisor_and_runs_after_its_subtree(

@@ -230,3 +230,83 @@ def test_a_console_answer_without_a_status_answers_done(
     scenario, found = check_scenario(written(tmp_path, inspection, text), inspection)
     assert not found.errors and scenario is not None
     assert [e.answer for e in scenario.events] == [("op/fx", "DONE", "")]
+
+
+def test_a_range_expected_of_a_figure_that_holds_no_number_says_what_to_expect(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """E415 names the figure's kind and what it takes instead of a range: an enum and a str
+    one value, a bool true or false."""
+    inspection = systems["inspection"]
+    body = "expect:\n  figures: {cmm_op: {min: 1}, pdm_request: {max: 2}, pdm_online: {min: 0}}\n"
+    assert [m for _, m, _ in said(tmp_path, inspection, body)] == [
+        "`cmm_op` is an enum: expect one value, not a range",
+        "`pdm_request` is a str: expect one value, not a range",
+        "`pdm_online` is a bool: expect true or false, not a range",
+    ]
+
+
+def test_an_operator_script_is_refused_where_its_key_and_its_default_are_written(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """The errors of the script are located at what they are about: `operator:` for a
+    system with no operator module, the `default:` for a default DONE that records no
+    results, an entry's `results:` for results given with ERROR (not the top of the file
+    nor the entry)."""
+    head = "scenario: s\ntitle: A scenario\nmax_cycles: 20\n"
+    cell = systems["cell"]
+    path = written(tmp_path, cell, head + "operator:\n  default: {answer: DONE}\n")
+    _, found = check_scenario(path, cell)
+    assert [(d.code, d.span.line, d.span.col) for d in found.errors] == [("E285", 5, 3)]
+    platoon = systems["platoon"]
+    path = written(tmp_path, platoon, head + "operator:\n  default: {answer: DONE}\n")
+    _, found = check_scenario(path, platoon)
+    assert [(d.code, d.span.line, d.span.col) for d in found.errors] == [("E911", 5, 12)]
+    # results with ERROR: at the results given
+    path = written(tmp_path, platoon, head + LDR + "answer: ERROR, results: {post: 1.0}}\n")
+    _, found = check_scenario(path, platoon)
+    assert [(d.code, d.span.line, d.span.col) for d in found.errors] == [("E911", 6, 51)]
+
+
+def test_what_the_checks_approved_of_the_script_and_the_answers_is_what_runs(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """A scripted answer keeps the results it records and its delay in cycles of its
+    operator module's process (not another process's); a console answer DONE to a channel
+    whose tasks record results is checked against the task open when it runs, not refused
+    here for the results it does not give."""
+    import dataclasses
+
+    platoon = systems["platoon"]
+    # the operator's process (command) twice as fast as the vehicles' (pa, pb)
+    processes = tuple(
+        dataclasses.replace(p, cycle_period=0.5 if "ldr" in p.modules else 1.0)
+        for p in platoon.processes
+    )
+    faster = dataclasses.replace(platoon, processes=processes)
+    text = (
+        "scenario: s\ntitle: A scenario\nmax_cycles: 20\n"
+        "operator:\n  answers:\n    - {task: SPOT_REPORT, answer: DONE, after: 2 s, "
+        "results: {decision: HOLD, post: 2.0}}\n"
+        "events:\n  - cycle: 3\n    answer: {request: ldr/pl}\n"
+    )
+    scenario, found = check_scenario(written(tmp_path, faster, text), faster)
+    assert not found.errors and scenario is not None and scenario.operator is not None
+    [answer] = scenario.operator.answers
+    assert answer.after == 4 and answer.results == (("decision", "HOLD"), ("post", 2.0))
+    [event] = scenario.events
+    assert event.answer == ("ldr/pl", "DONE", "") and event.answer_results == {}
+
+
+def test_a_report_that_phases_an_operator_module_names_its_clients(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """An operator module answers its clients' tasks and runs no command of its own: the
+    phases of a run are a client's."""
+    assert said(tmp_path, systems["inspection"], "report:\n  phases: op\n") == [
+        (
+            "E285",
+            "`op` is an operator module: it has no phases of its own: name a client",
+            "its clients: fx, tl",
+        )
+    ]

@@ -166,3 +166,13 @@ def test_a_wrong_value_is_quoted_whole_up_to_30_characters(
         30: f"give true or false, not `{'a' * 30}`",
         31: f"give true or false, not `{'b' * 27}...`",
     }
+
+
+def test_ground_truth_its_simulators_write_may_be_forced(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """The world itself (`ground_truth`) is forced where only simulators write it (tas writes
+    true_x): what a test of a sensor's failure does. (A controller writing it for real is
+    refused by E280 when the system compiles, so E425's other half is never reached here.)"""
+    body = EVENT + "force: {true_x: 3.5}\n  - cycle: 5\n    unforce: [true_x]\n"
+    assert said(tmp_path, systems["miner"], body) == []

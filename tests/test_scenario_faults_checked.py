@@ -66,6 +66,9 @@ def test_a_device_fault_names_a_device_served_and_declared(hil, tmp_path) -> Non
     assert said(tmp_path, hil, "devices: {plx: {}}\n") == [
         ("E426", "`miner_hil` has no I/O device `plx`", "did you mean `plc`?")
     ]
+    assert said(tmp_path, hil, "devices: {zzz: {}}\n") == [  # far from every name
+        ("E426", "`miner_hil` has no I/O device `zzz`", "declared devices: `conveyor`, `plc`")
+    ]
 
 
 def test_a_plant_that_is_no_spec_directory_is_named_with_where_it_was_looked_for(
@@ -87,6 +90,12 @@ def test_a_plant_that_is_no_spec_directory_is_named_with_where_it_was_looked_for
     assert [(c, m.split(":")[0]) for c, m, _ in both] == [
         ("E426", "`miner_hil` has no I/O device `plx`"),
         ("E426", "plant `empty` of device `plc` is not a spec directory"),
+    ]
+    # a wrong plant first: the devices after it are still served (and may be faulted)
+    fault = "events:\n  - cycle: 2\n    device: {name: conveyor, do: freeze}\n"
+    later = said(tmp_path, hil, "devices:\n  plc: {plant: empty}\n  conveyor: {}\n" + fault)
+    assert [(c, m.split(":")[0]) for c, m, _ in later] == [
+        ("E426", "plant `empty` of device `plc` is not a spec directory")
     ]
     # a plant that is one: the scenario serves both devices
     (tmp_path / "plant").mkdir()

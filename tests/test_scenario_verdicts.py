@@ -109,6 +109,9 @@ def test_a_stale_package_names_the_files_that_differ(tmp_path: Path) -> None:
     exactly = SimpleNamespace(write=many[:6], delete=[])
     six = stale_package(exactly, tmp_path / "gen", "cell")  # type: ignore[arg-type]
     assert six is not None and "m5.py differ from" in six.message and "more" not in six.message
+    seven = SimpleNamespace(write=many[:7], delete=[])
+    said = stale_package(seven, tmp_path / "gen", "cell")  # type: ignore[arg-type]
+    assert said is not None and "m5.py and 1 more differ from" in said.message  # none left out
     none = SimpleNamespace(write=[tmp_path / "elsewhere.py"], delete=[])
     assert stale_package(none, tmp_path / "gen", "cell") is None  # type: ignore[arg-type]
 

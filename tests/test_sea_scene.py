@@ -147,3 +147,43 @@ def test_a_page_is_drawn_from_the_trace_and_the_hooks_of_the_system_that_ran(
     assert '"scenario":""' in page and '"haven":250.0' in page
     alone = sea.render(trace(), sub, folder, {})  # no scenario named: none said
     assert '"scenario":""' in alone
+
+
+def test_figure_33s_displays_are_drawn_for_the_script_to_turn_and_fill() -> None:
+    """The four displays beside the plan, each a DIAL-wide square: the hull in profile on
+    its level line (the script turns `hull` by the bubble angle), the compass card with its
+    course mark and heading needle (north up), the sonar's beams from the bow at the
+    bottom's middle, each drawn out to DIAL - 20 px at its angle (0: straight up to the
+    surface line's height), and the depth gauge (surface, bottom, order, ship)."""
+    sonar = sea.Sonar(["a", "b", "c"], [-30.0, 0.0, 20.0], 800.0)
+    drawn = sea.displays(sea.Scene([], [], [], None, sonar=sonar))
+    assert drawn == (
+        '<svg id="bubble" class="display" width="150" height="150">'
+        '<line class="level" x1="8" y1="75.0" x2="142" y2="75.0"/>'
+        '<g id="hull" transform="translate(75.0 75.0)">'
+        '<path d="M -55 0 Q -50 -9 -20 -9 L 35 -9 Q 58 -8 60 0 Q 58 8 35 9 L -20 9 '
+        'Q -50 9 -55 0 Z"/><rect x="-2" y="-20" width="14" height="11"/></g>'
+        '<text id="bubble-text" x="75.0" y="142"></text></svg>'
+        '<svg id="compass" class="display" width="150" height="150">'
+        '<circle class="card" cx="75.0" cy="75.0" r="63.0"/><text x="75.0" y="18">N</text>'
+        '<line id="course-mark" x1="75.0" y1="12.0" x2="75.0" y2="22.0"/>'
+        '<line id="heading-needle" x1="75.0" y1="75.0" x2="75.0" y2="18.0"/>'
+        '<text id="speed-text" x="75.0" y="103.0"></text></svg>'
+        '<svg id="sonar" class="display" width="150" height="150">'
+        '<line class="beam" id="beam-0" data-angle="-30.0" x1="75.0" y1="140" x2="10.0" '
+        'y2="27.4"/>'
+        '<line class="beam" id="beam-1" data-angle="0.0" x1="75.0" y1="140" x2="75.0" '
+        'y2="10.0"/>'
+        '<line class="beam" id="beam-2" data-angle="20.0" x1="75.0" y1="140" x2="119.5" '
+        'y2="17.8"/></svg>'
+        '<svg id="depth-gauge" class="display" width="150" height="150">'
+        '<line class="surface" x1="20" y1="10" x2="130" y2="10"/>'
+        '<line id="depth-bottom" x1="20" x2="130" y1="0" y2="0"/>'
+        '<line id="depth-order" x1="20" x2="130" y1="0" y2="0"/>'
+        '<path id="depth-ship" d="M 55.0 0 l 40 0 l -6 -5 l -28 0 Z"/>'
+        '<text id="depth-text" x="75.0" y="146"></text></svg>'
+    )
+    # without the sonar's beams (hooks that name none) the sonar display is empty
+    plain = sea.displays(sea.Scene([], [], [], None))
+    assert '<svg id="sonar" class="display" width="150" height="150"></svg>' in plain
+    assert "beam" not in plain

@@ -477,3 +477,9 @@ def test_the_plcs_help_says_what_it_is(capsys: pytest.CaptureFixture[str]) -> No
         "A soft PLC: a system's simulators behind a Modbus TCP server, for hardware in the loop."
     )
     assert described in " ".join(said.split())  # however wide the terminal wraps it
+    # what the files it writes for the bench hold (a scenario's bench reads them)
+    for contract in (
+        "--ready READY write the ports here once listening (a line per --device, in order)",
+        "--report REPORT write the plant's world here (JSON) when stopped",
+    ):
+        assert contract in " ".join(said.split())

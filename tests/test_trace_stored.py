@@ -136,3 +136,26 @@ def test_applying_and_removing_leave_the_old_record_untouched() -> None:
         stored.without(old, ["w", "q"])  # not a mapping to remove from
     with pytest.raises(KeyError):
         stored.without(old, ["m", "q"])
+
+
+def test_full_lines_whose_modules_are_the_last_ones_share_them_decoded_once() -> None:
+    """A long run's full lines mostly repeat the modules of the line before (only the world
+    moved): the reader decodes such a line's modules once and shares the object, so a
+    trace held in memory holds one copy of them; other modules, or a line of another
+    shape, are decoded as written."""
+    modules = {"sup": {"state": "S1", "status": "EXECUTING"}}
+
+    def full(cycle: int, world: float, mods: dict[str, Any] = modules) -> str:
+        record = {"cycle": cycle, "modules": mods, "world": {"x": world}}
+        return json.dumps(record, sort_keys=True, separators=(",", ":"))
+
+    other = {"sup": {"state": "S2", "status": "DONE"}}
+    lines = [full(1, 0.5), full(2, 1.5), full(3, 2.5), full(4, 3.5, other), full(5, 4.5, other)]
+    records = [record for _, record in traces._records(lines, "t.jsonl")]
+    assert [r["world"]["x"] for r in records] == [0.5, 1.5, 2.5, 3.5, 4.5]
+    assert [r["modules"] for r in records] == [modules] * 3 + [other] * 2
+    assert records[1]["modules"] is records[0]["modules"] is records[2]["modules"]
+    assert records[4]["modules"] is records[3]["modules"] is not records[2]["modules"]
+    spaced = json.dumps({"cycle": 6, "modules": other, "world": {"x": 5.5}})  # not rcsgen's
+    [(_, record)] = traces._records([spaced], "t.jsonl")
+    assert record == {"cycle": 6, "modules": other, "world": {"x": 5.5}}
