@@ -79,3 +79,69 @@ def test_the_block_words_a_module_stores_are_named_in_lowering() -> None:
         assert all(at.removesuffix("_AT") + "_WORD" == w for w, at in each.stored_words)
     template = (REPO / "templates" / "controller.py.j2").read_text(encoding="utf-8")
     assert "_WORD" not in template.replace("SEQ_WORDS", "")
+
+
+PAIR_SYSTEM = """\
+system: pair
+title: A supervisor that fills a tank and a device
+cycle_period: 0.1
+world:
+  level: {type: float, initial: 0.0, doc: The tank's level.}
+processes:
+  p:
+    modules: [top, dev]
+"""
+PAIR_TOP = """\
+controller: top
+title: Top
+subordinates: [dev]
+world:
+  reads: [level]
+  writes: [level]
+every_cycle:
+  - doc: too high; halt the device
+    when: world.level > 5.0
+    do: [send: dev.HALT]
+  - doc: fill
+    do: [set: {world.level: world.level + 1.0}]
+commands:
+  GO:
+    doc: Run the device.
+    states:
+      S0:
+        - do: [send: dev.RUN]
+          next: S1
+      S1:
+        - when: dev.status == DONE
+          do: [report: DONE]
+        - when: dev.status == ERROR
+          do: [report: ERROR]
+"""
+PAIR_DEV = """\
+controller: dev
+title: Device
+commands:
+  RUN:
+    doc: Run.
+    states:
+      S0:
+        - do: [report: DONE]
+"""
+
+
+def test_only_the_every_cycle_rules_that_set_a_world_field_raise_the_world_set_flag(
+    tmp_path: Path,
+) -> None:
+    """An every_cycle rule records no code when it fires, so one that writes a world output
+    raises `world_set` for post_process; a rule that only sends a command (or sets a local)
+    writes no world field and raises nothing."""
+    for name, text in (("system", PAIR_SYSTEM), ("top", PAIR_TOP), ("dev", PAIR_DEV)):
+        (tmp_path / f"{name}.yaml").write_text(text)
+    out = compile_paths([tmp_path])
+    assert [d.code for d in out.diagnostics.items] == []
+    (system,) = out.systems
+    top = next(c for c in system.controllers if c.name == "top")
+    sends, fills = top.every_cycle
+    assert top.io is not None
+    assert top.io.world_set_rules == (fills.id,)
+    assert "world_set" in top.io.slots

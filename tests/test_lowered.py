@@ -147,3 +147,24 @@ def test_a_process_keeps_its_own_cycle_period(tmp_path: Path) -> None:
     assert [(p.name, p.cycle_period) for p in lowered.processes] == [("p", 0.05)]
     controllers = {c.name: c for c in lowered.controllers}
     assert dict(controllers["dev"].constants)["CYCLE_PERIOD"].startswith("0.05  #")
+
+
+def test_a_guard_that_is_always_true_is_lowered_to_none(tmp_path: Path) -> None:
+    """A `when` that reads only constants and is true (folded by the checker) costs nothing
+    at run time: the rule is lowered with no guard, as a rule with no `when`, while the
+    guards that read inputs stay."""
+    top = TOP.replace("subordinates: [dev]\n", "subordinates: [dev]\nconstants:\n  SPARE: 2\n")
+    top = top.replace(
+        "        - do: [{send: dev.RUN, with: {how: FAST}}]\n",
+        "        - when: SPARE > 1\n          do: [{send: dev.RUN, with: {how: FAST}}]\n",
+    )
+    for name, text in (("system", SYSTEM), ("top", top), ("dev", DEV)):
+        (tmp_path / f"{name}.yaml").write_text(text)
+    out = compile_paths([tmp_path], analyse=False)
+    assert [d.code for d in out.diagnostics.items] == []
+    (system,) = out.systems
+    go = next(c for c in system.controllers if c.name == "top").commands[-1]
+    assert go.name == "GO"
+    (sends,) = go.states[0].rules
+    assert sends.guard is None
+    assert all(r.guard is not None for r in go.states[1].rules)

@@ -43,7 +43,6 @@ class Buffer:
     const: str  # the layout module's name for it, e.g. CO_COMMAND
     offset: int
     slots: tuple[Slot, ...]
-    doc: str
 
     @cached_property
     def format(self) -> str:
