@@ -168,3 +168,20 @@ def test_a_guard_that_is_always_true_is_lowered_to_none(tmp_path: Path) -> None:
     (sends,) = go.states[0].rules
     assert sends.guard is None
     assert all(r.guard is not None for r in go.states[1].rules)
+
+
+def test_a_process_keeps_its_realtime_settings_in_order(tmp_path: Path) -> None:
+    """A process's `realtime:` settings reach its lowered process (what the process module
+    declares and applies as it starts), sorted by name whatever the spec's order."""
+    system = SYSTEM.replace(
+        "    modules: [top, dev]\n",
+        "    modules: [top, dev]\n    realtime: {gc: freeze, cpus: [0]}\n",
+    )
+    for name, text in (("system", system), ("top", TOP), ("dev", DEV)):
+        (tmp_path / f"{name}.yaml").write_text(text)
+    out = compile_paths([tmp_path], analyse=False)
+    assert [d.code for d in out.diagnostics.items] == []
+    (lowered,) = out.systems
+    assert [list(p.realtime.items()) for p in lowered.processes] == [
+        [("cpus", [0]), ("gc", "freeze")]
+    ]
