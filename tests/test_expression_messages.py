@@ -2,7 +2,7 @@
 (E107 between numbers, E277 where an enum or a string is involved, and the hint to give a
 string target a larger `size` only when a string is too long for a string), how it prints
 an expression with `//` and `%` in a finding, and that a guard written over several lines
-(a YAML string with a line break, `\\n` or `\\r\\n`) reads as one line. One small system,
+(a YAML string with a line break, `\\n`, `\\r\\n` or a lone `\\r`) reads as one line. One small system,
 edited (tests/test_check_messages.py's tank)."""
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ def test_a_finding_prints_floor_division_and_remainder(tmp_path, monkeypatch) ->
     ]
 
 
-@pytest.mark.parametrize("newline", ["\\n", "\\r\\n"])
+@pytest.mark.parametrize("newline", ["\\n", "\\r\\n", "\\r"])
 def test_a_guard_over_two_lines_reads_as_one(tmp_path, monkeypatch, newline: str) -> None:
     guard = f'"world.level < 2.0{newline}  and world.level > -1.0"'
     tank = TANK.replace("- when: world.level < 2.0", f"- when: {guard}", 1)
