@@ -2,8 +2,8 @@
 (E107 between numbers, E277 where an enum or a string is involved, and the hint to give a
 string target a larger `size` only when a string is too long for a string), how it prints
 an expression with `//` and `%` in a finding, and that a guard written over several lines
-(a YAML string with a line break, `\\n`, `\\r\\n` or a lone `\\r`) reads as one line. One small system,
-edited (tests/test_check_messages.py's tank)."""
+(a YAML string with a line break, `\\n`, `\\r\\n` or a lone `\\r`) reads as one line. One
+small system, edited (tests/test_check_messages.py's tank)."""
 
 from __future__ import annotations
 
