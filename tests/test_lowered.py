@@ -149,6 +149,24 @@ def test_a_process_keeps_its_own_cycle_period(tmp_path: Path) -> None:
     assert dict(controllers["dev"].constants)["CYCLE_PERIOD"].startswith("0.05  #")
 
 
+def compiled_systems(
+    root: Path, system: str = SYSTEM, top: str = TOP, dev: str = DEV
+) -> list[ir.IRSystem]:
+    """The pair, edited, compiled without a finding (the analysis left out)."""
+    for name, text in (("system", system), ("top", top), ("dev", dev)):
+        (root / f"{name}.yaml").write_text(text)
+    out = compile_paths([root], analyse=False)
+    assert [d.code for d in out.diagnostics.items] == []
+    return out.systems
+
+
+def compiled(
+    root: Path, system: str = SYSTEM, top: str = TOP, dev: str = DEV
+) -> dict[str, ir.IRController]:
+    (lowered,) = compiled_systems(root, system, top, dev)
+    return {c.name: c for c in lowered.controllers}
+
+
 def test_a_guard_that_is_always_true_is_lowered_to_none(tmp_path: Path) -> None:
     """A `when` that reads only constants and is true (folded by the checker) costs nothing
     at run time: the rule is lowered with no guard, as a rule with no `when`, while the
@@ -158,12 +176,7 @@ def test_a_guard_that_is_always_true_is_lowered_to_none(tmp_path: Path) -> None:
         "        - do: [{send: dev.RUN, with: {how: FAST}}]\n",
         "        - when: SPARE > 1\n          do: [{send: dev.RUN, with: {how: FAST}}]\n",
     )
-    for name, text in (("system", SYSTEM), ("top", top), ("dev", DEV)):
-        (tmp_path / f"{name}.yaml").write_text(text)
-    out = compile_paths([tmp_path], analyse=False)
-    assert [d.code for d in out.diagnostics.items] == []
-    (system,) = out.systems
-    go = next(c for c in system.controllers if c.name == "top").commands[-1]
+    go = compiled(tmp_path, top=top)["top"].commands[-1]
     assert go.name == "GO"
     (sends,) = go.states[0].rules
     assert sends.guard is None
@@ -177,11 +190,26 @@ def test_a_process_keeps_its_realtime_settings_in_order(tmp_path: Path) -> None:
         "    modules: [top, dev]\n",
         "    modules: [top, dev]\n    realtime: {gc: freeze, cpus: [0]}\n",
     )
-    for name, text in (("system", system), ("top", TOP), ("dev", DEV)):
-        (tmp_path / f"{name}.yaml").write_text(text)
-    out = compile_paths([tmp_path], analyse=False)
-    assert [d.code for d in out.diagnostics.items] == []
-    (lowered,) = out.systems
+    (lowered,) = compiled_systems(tmp_path, system=system)
     assert [list(p.realtime.items()) for p in lowered.processes] == [
         [("cpus", [0]), ("gc", "freeze")]
     ]
+
+
+def test_only_the_every_cycle_rules_that_set_a_world_field_raise_the_world_set_flag(
+    tmp_path: Path,
+) -> None:
+    """An every_cycle rule records no code when it fires, so one that writes a world output
+    raises `world_set` for post_process; a rule that only sends a command writes no world
+    field and raises nothing."""
+    top = TOP.replace(
+        "subordinates: [dev]\n",
+        "subordinates: [dev]\nworld:\n  reads: [level]\n  writes: [level]\n"
+        "every_cycle:\n  - when: world.level > 5.0\n    do: [send: dev.HALT]\n"
+        "  - do: [set: {world.level: world.level + 1.0}]\n",
+    )
+    lowered = compiled(tmp_path, top=top)["top"]
+    sends, fills = lowered.every_cycle
+    assert lowered.io is not None
+    assert lowered.io.world_set_rules == (fills.id,)
+    assert "world_set" in lowered.io.slots
