@@ -2,8 +2,9 @@
 (rcsgen/compiler/back_end/lower.py): the enumeration values its tables name, whether from a
 guard, an assigned value, a sent argument or a predicate (each becomes a module constant of
 its index, so one left out is a NameError when the rule runs); the contract's names it
-imports; a subordinate's reason codes, made when a report passes its reason up. One small
-system of two controllers, in process."""
+imports; a subordinate's reason codes, made when a report passes its reason up; a guard that
+is always true lowered to none; a process's own period and real-time settings; which
+every_cycle rules raise `world_set`. One small system of two controllers, in process."""
 
 from __future__ import annotations
 
