@@ -112,6 +112,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_trace_recording",
             "test_trace_stored",
             "test_tool_values",
+            "test_type_words",
             "test_traces",
             "test_validate",
             "test_waiting",

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from rcsgen.compiler.back_end.emit import comment, docstring
+from rcsgen.compiler.back_end.emit import comment, docstring, safe_source
 from rcsgen.compiler.frontend import compile_paths
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"
@@ -36,6 +36,15 @@ def test_a_docstring_is_triple_quoted_only_when_plainly_safe(text: str, shown: s
 
 def test_a_comment_is_one_line_with_control_characters_escaped() -> None:
     assert comment("two\nlines\x00") == "# two lines\\x00"
+
+
+def test_a_spec_path_keeps_printable_ascii_but_quotes_and_backslashes() -> None:
+    """A spec's path reaches a comment line and a "..." literal: every printable ASCII
+    character from the space to `~` stays, a quote, a backslash or anything else is `?`."""
+    printable = "".join(map(chr, range(0x20, 0x7F)))
+    kept = printable.replace('"', "?").replace("'", "?").replace("\\", "?")
+    assert safe_source(printable) == kept
+    assert safe_source("specs/x\u00e9\n\x7f\x1f/top.yaml") == "specs/x????/top.yaml"
 
 
 def test_a_command_is_timed_just_when_one_of_its_rules_waits() -> None:

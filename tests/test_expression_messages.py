@@ -2,8 +2,8 @@
 (E107 between numbers, E277 where an enum or a string is involved, and the hint to give a
 string target a larger `size` only when a string is too long for a string), how it prints
 an expression with `//` and `%` in a finding, and that a guard written over several lines
-(a YAML string with a line break, `\\n` or `\\r\\n`) reads as one line. One small system,
-edited (tests/test_check_messages.py's tank)."""
+(a YAML string with a line break, `\\n`, `\\r\\n` or a lone `\\r`) reads as one line. One
+small system, edited (tests/test_check_messages.py's tank)."""
 
 from __future__ import annotations
 
@@ -84,7 +84,7 @@ def test_a_finding_prints_floor_division_and_remainder(tmp_path, monkeypatch) ->
     ]
 
 
-@pytest.mark.parametrize("newline", ["\\n", "\\r\\n"])
+@pytest.mark.parametrize("newline", ["\\n", "\\r\\n", "\\r"])
 def test_a_guard_over_two_lines_reads_as_one(tmp_path, monkeypatch, newline: str) -> None:
     guard = f'"world.level < 2.0{newline}  and world.level > -1.0"'
     tank = TANK.replace("- when: world.level < 2.0", f"- when: {guard}", 1)
@@ -128,3 +128,30 @@ def test_the_generated_code_keeps_a_guards_grouping(tmp_path) -> None:
         " > 0.0\n"
         "            ):\n"
     ) in code
+
+
+@pytest.mark.parametrize("length", [40, 41])
+def test_a_comment_in_an_expression_is_quoted_whole_up_to_40_characters(
+    tmp_path, monkeypatch, length: int
+) -> None:
+    """A `#` in a quoted guard would drop the rest of it: E101 quotes the comment, whole when
+    it is at most 40 characters, else its first 37 and `...`."""
+    comment = "c" * length
+    tank = TANK.replace("- when: world.level < 2.0", f'- when: "world.level < 2.0 # {comment}"', 1)
+    shown = comment if length <= 40 else comment[:37] + "..."
+    found = [f for f in said(tmp_path, monkeypatch, SYSTEM, tank) if f[0].startswith("E")]
+    assert [(code, message) for code, message, _ in found] == [
+        ("E101", f"invalid expression: `#` is not allowed (`# {shown}`)")
+    ]
+
+
+@pytest.mark.parametrize("length", [80, 81])
+def test_a_guard_with_a_syntax_error_is_quoted_whole_up_to_80_characters(
+    tmp_path, monkeypatch, length: int
+) -> None:
+    guard = "world.level < 2.0 and " + "1" * (length - len("world.level < 2.0 and  +")) + " +"
+    assert len(guard) == length
+    tank = TANK.replace("- when: world.level < 2.0", f"- when: {guard}", 1)
+    shown = guard if length <= 80 else guard[:77] + "..."
+    found = [f for f in said(tmp_path, monkeypatch, SYSTEM, tank) if f[0].startswith("E")]
+    assert [(code, hint) for code, _, hint in found] == [("E101", f"in `{shown}`")]

@@ -296,6 +296,20 @@ def test_a_fifo_in_an_old_output_directory_is_never_opened(system: Path) -> None
     assert (out / "tiny" / "old.py").exists()
 
 
+def test_a_copy_of_a_generated_file_that_the_manifest_does_not_list_is_kept(
+    system: Path,
+) -> None:
+    """With a manifest, rcsgen deletes only what it lists: a person's copy of a generated
+    module (the header and all) is theirs, not stale output; the manifest's own header is
+    what makes it rcsgen's."""
+    out = built(system)
+    copy = out / "tiny" / "top_before_the_fix.py"
+    shutil.copy(out / "tiny" / "top.py", copy)
+    result = rcsgen("build", "sys", "-o", "out")
+    assert result.exit_code == 0, result.output
+    assert copy.exists()
+
+
 def test_a_failed_write_is_undone(system: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The disk refuses the third rename of a rebuild (as a full disk or a yanked drive
     would): every file already renamed into place is restored, nothing else is left."""

@@ -11,6 +11,7 @@ import pytest
 
 from rcsgen.compiler.diagnostics import Diagnostics, Span
 from rcsgen.compiler.front_end import fragments
+from rcsgen.compiler.front_end.loader import load_text
 
 WHERE = Span("c.yaml", 7, 3)
 RULES = [{"when": "$limit > 0", "do": [{"report": "DONE"}]}]
@@ -122,3 +123,26 @@ def test_one_wrong_fragment_leaves_the_others_whole() -> None:
     )
     assert [code for code, _, _ in said] == ["E269", "E269"]
     assert found["bad"] is None and found["good"] is not None and "Worse" not in found
+
+
+@pytest.mark.parametrize("value", ["{much: 1}", "~"])
+def test_a_use_given_a_mapping_or_nothing_for_a_parameter_is_e269_at_the_value(
+    value: str,
+) -> None:
+    """A use's `with:` gives each parameter a name, an expression, a number or a list of
+    actions: a mapping or a null is E269 at that value, and the state is not expanded."""
+    text = (
+        "controller: c\ntitle: C\nfragments:\n  twice:\n    params: [limit]\n    states:\n"
+        "      FIRST:\n        - when: $limit > 0\n          do: [report: DONE]\n"
+        f"commands:\n  GO:\n    states:\n      S0: {{use: twice, with: {{limit: {value}}}}}\n"
+    )
+    diags = Diagnostics()
+    uses, whole = fragments.expand(load_text(text, "c.yaml"), {}, diags, Span("c.yaml"))
+    assert (uses, whole) == ([], False)
+    assert [(str(d.span), d.code, d.message) for d in diags.items] == [
+        (
+            "c.yaml:13:38",
+            "E269",
+            "the value of `limit` must be a name, an expression, a number or a list of actions",
+        )
+    ]

@@ -12,12 +12,17 @@ from types import ModuleType
 
 import pytest
 
-from rcsgen.compiler import diagnostics, ir, types
+from rcsgen.compiler import codes, diagnostics, ir, types
+from rcsgen.compiler.back_end import module_io
 from rcsgen.compiler.checks import tables
 from rcsgen.compiler.expressions import nodes
+from rcsgen.compiler.front_end import fragments
 from rcsgen.compiler.prove import model as prove_model
 
-MODULES = (ir, types, tables, nodes, prove_model, diagnostics)
+# (module_io: the fields lowering gathers into a struct and where each module runs;
+# fragments: a fragment and each use of it, shared by every command that uses it; codes:
+# the registry's codes, read by every stage)
+MODULES = (ir, types, tables, nodes, prove_model, diagnostics, module_io, fragments, codes)
 
 
 def dataclasses_of(module: ModuleType) -> list[type]:

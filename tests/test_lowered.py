@@ -2,8 +2,9 @@
 (rcsgen/compiler/back_end/lower.py): the enumeration values its tables name, whether from a
 guard, an assigned value, a sent argument or a predicate (each becomes a module constant of
 its index, so one left out is a NameError when the rule runs); the contract's names it
-imports; a subordinate's reason codes, made when a report passes its reason up. One small
-system of two controllers, in process."""
+imports; a subordinate's reason codes, made when a report passes its reason up; a guard that
+is always true lowered to none; a process's own period and real-time settings; which
+every_cycle rules raise `world_set`. One small system of two controllers, in process."""
 
 from __future__ import annotations
 
@@ -147,3 +148,69 @@ def test_a_process_keeps_its_own_cycle_period(tmp_path: Path) -> None:
     assert [(p.name, p.cycle_period) for p in lowered.processes] == [("p", 0.05)]
     controllers = {c.name: c for c in lowered.controllers}
     assert dict(controllers["dev"].constants)["CYCLE_PERIOD"].startswith("0.05  #")
+
+
+def compiled_systems(
+    root: Path, system: str = SYSTEM, top: str = TOP, dev: str = DEV
+) -> list[ir.IRSystem]:
+    """The pair, edited, compiled without a finding (the analysis left out)."""
+    for name, text in (("system", system), ("top", top), ("dev", dev)):
+        (root / f"{name}.yaml").write_text(text)
+    out = compile_paths([root], analyse=False)
+    assert [d.code for d in out.diagnostics.items] == []
+    return out.systems
+
+
+def compiled(
+    root: Path, system: str = SYSTEM, top: str = TOP, dev: str = DEV
+) -> dict[str, ir.IRController]:
+    (lowered,) = compiled_systems(root, system, top, dev)
+    return {c.name: c for c in lowered.controllers}
+
+
+def test_a_guard_that_is_always_true_is_lowered_to_none(tmp_path: Path) -> None:
+    """A `when` that reads only constants and is true (folded by the checker) costs nothing
+    at run time: the rule is lowered with no guard, as a rule with no `when`, while the
+    guards that read inputs stay."""
+    top = TOP.replace("subordinates: [dev]\n", "subordinates: [dev]\nconstants:\n  SPARE: 2\n")
+    top = top.replace(
+        "        - do: [{send: dev.RUN, with: {how: FAST}}]\n",
+        "        - when: SPARE > 1\n          do: [{send: dev.RUN, with: {how: FAST}}]\n",
+    )
+    go = compiled(tmp_path, top=top)["top"].commands[-1]
+    assert go.name == "GO"
+    (sends,) = go.states[0].rules
+    assert sends.guard is None
+    assert all(r.guard is not None for r in go.states[1].rules)
+
+
+def test_a_process_keeps_its_realtime_settings_in_order(tmp_path: Path) -> None:
+    """A process's `realtime:` settings reach its lowered process (what the process module
+    declares and applies as it starts), sorted by name whatever the spec's order."""
+    system = SYSTEM.replace(
+        "    modules: [top, dev]\n",
+        "    modules: [top, dev]\n    realtime: {gc: freeze, cpus: [0]}\n",
+    )
+    (lowered,) = compiled_systems(tmp_path, system=system)
+    assert [list(p.realtime.items()) for p in lowered.processes] == [
+        [("cpus", [0]), ("gc", "freeze")]
+    ]
+
+
+def test_only_the_every_cycle_rules_that_set_a_world_field_raise_the_world_set_flag(
+    tmp_path: Path,
+) -> None:
+    """An every_cycle rule records no code when it fires, so one that writes a world output
+    raises `world_set` for post_process; a rule that only sends a command writes no world
+    field and raises nothing."""
+    top = TOP.replace(
+        "subordinates: [dev]\n",
+        "subordinates: [dev]\nworld:\n  reads: [level]\n  writes: [level]\n"
+        "every_cycle:\n  - when: world.level > 5.0\n    do: [send: dev.HALT]\n"
+        "  - do: [set: {world.level: world.level + 1.0}]\n",
+    )
+    lowered = compiled(tmp_path, top=top)["top"]
+    sends, fills = lowered.every_cycle
+    assert lowered.io is not None
+    assert lowered.io.world_set_rules == (fills.id,)
+    assert "world_set" in lowered.io.slots

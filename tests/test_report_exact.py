@@ -9,7 +9,15 @@ import json
 
 import pytest
 
-from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
+from rcsgen.compiler.diagnostics import (
+    Diagnostic,
+    Diagnostics,
+    Span,
+    _edit_distance,
+    did_you_mean,
+    known_names_hint,
+    to_json,
+)
 from rcsgen.tools import report
 from rcsgen.tools.report import Options, Outcome
 
@@ -188,3 +196,89 @@ def test_select_ignore_and_strict_decide_what_is_shown_and_what_fails() -> None:
     assert report.shown(Diagnostics([WARNING]), Options(select=("W3", "W50"))) == ([WARNING], [])
     shown = report.shown(diags, Options(show_acknowledged=True, select=("E",)))
     assert shown == ([ERROR], [ACKNOWLEDGED])  # errors shown whatever is selected
+
+
+def test_json_names_every_field_and_an_acknowledged_warnings_reason() -> None:
+    """`--format json`: each distinct finding once, by position, each field by its name;
+    the reason only for an acknowledged warning."""
+    assert json.loads(to_json([WARNING, ERROR, ERROR, ACKNOWLEDGED])) == [
+        {
+            "file": "/abs/x.yaml",
+            "line": 2,
+            "col": 7,
+            "severity": "warning",
+            "code": "W503",
+            "message": "state S1 can wait",
+            "hint": "add a timeout",
+            "acknowledged": "the operator ends it",
+        },
+        {
+            "file": "sys/a b.yaml",
+            "line": 3,
+            "col": 4,
+            "severity": "error",
+            "code": "E204",
+            "message": "unknown command `MOVEE`",
+            "hint": "did you mean `MOVE`?",
+        },
+        {
+            "file": "sys/a b.yaml",
+            "line": 9,
+            "col": 1,
+            "severity": "warning",
+            "code": "W503",
+            "message": "state S2 can wait",
+            "hint": "add a timeout",
+        },
+    ]
+
+
+def test_a_span_of_a_whole_file_is_its_first_line_and_column() -> None:
+    assert str(Span("out")) == "out:1:1"
+
+
+@pytest.mark.parametrize(
+    ("name", "names", "said"),
+    [
+        ("cx", ["cc", "zz"], "did you mean `cc`?"),  # two letters, one substituted
+        ("CX", ["cc"], "did you mean `cc`?"),  # whatever the case
+        ("ab", ["ba"], ""),  # swapped: two edits
+        ("ab", ["azzz"], ""),  # its start is one edit away, the whole three
+        ("ab", ["wxyz"], ""),
+        ("x", ["y"], ""),  # one letter: too short to guess
+        ("MOVEE", ["MOVE", "HALT"], "did you mean `MOVE`?"),
+    ],
+)
+def test_did_you_mean_names_a_close_name_or_none(name: str, names: list[str], said: str) -> None:
+    assert did_you_mean(name, names) == said
+
+
+@pytest.mark.parametrize(
+    ("a", "b", "distance"),
+    [("", "ab", 2), ("ab", "", 2), ("ab", "ab", 0), ("ab", "abc", 1), ("abc", "ab", 1),
+     ("abc", "axc", 1), ("kitten", "sitting", 3), ("ab", "ba", 2)],
+)  # fmt: skip
+def test_the_edit_distance_counts_insertions_deletions_and_substitutions(
+    a: str, b: str, distance: int
+) -> None:
+    assert _edit_distance(a, b) == distance
+
+
+def test_a_hint_lists_the_declared_names_eight_at_most() -> None:
+    eight = [f"p{i}" for i in range(8)]
+    listed = ", ".join(f"`{n}`" for n in eight)
+    assert known_names_hint("predicates", reversed(eight)) == f"declared predicates: {listed}"
+    assert known_names_hint("predicates", [*eight, "q"]) == (
+        f"declared predicates: {listed} and 1 more"
+    )
+    assert known_names_hint("predicates", [], "x") == "no predicates are declared"
+    assert known_names_hint("predicates", ["ready"], "raedy") == "did you mean `ready`?"
+
+
+def test_an_acknowledged_warning_is_rendered_with_its_reason_not_its_hint() -> None:
+    assert ACKNOWLEDGED.render("  S1:") == (
+        "/abs/x.yaml:2:7: acknowledged[W503]: state S1 can wait\n"
+        "  |   S1:\n"
+        "  |       ^\n"
+        "  = reason: the operator ends it"
+    )

@@ -43,7 +43,6 @@ class Buffer:
     const: str  # the layout module's name for it, e.g. CO_COMMAND
     offset: int
     slots: tuple[Slot, ...]
-    doc: str
 
     @cached_property
     def format(self) -> str:
@@ -226,11 +225,11 @@ class IRWorldField:
     type: Type
     initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
-    actuator: bool = False
+    actuator: bool
     # an actuator's safe value (an enum's value name, a string's text): `safe:`, or the
     # type's zero (false, 0, 0.0, the first value, ""); None for a field that is no actuator
-    safe: bool | int | float | str | None = None
-    ground_truth: bool = False  # the simulation's truth, which no sensor gives (E280)
+    safe: bool | int | float | str | None
+    ground_truth: bool  # the simulation's truth, which no sensor gives (E280)
 
 
 class PropKind(StrEnum):

@@ -691,13 +691,13 @@ def _typed(name: str, kind: Type) -> FieldShape:
     return name, kind.code, kind.size if isinstance(kind, Str) else 0
 
 
-def _buffer(const: str, offset: int, fields: Iterable[FieldShape], doc: str) -> ir.Buffer:
+def _buffer(const: str, offset: int, fields: Iterable[FieldShape]) -> ir.Buffer:
     """A buffer at `offset`: its sequence word, then `fields`."""
     slots, at = [], offset
     for name, code, text in [("seq", "Q", 0), *fields]:
         slots.append(ir.Slot(name, code, at, text))
         at += struct.calcsize("<" + code)
-    return ir.Buffer(const, offset, tuple(slots), doc)
+    return ir.Buffer(const, offset, tuple(slots))
 
 
 def plan_layout(
@@ -716,10 +716,10 @@ def plan_layout(
     at = align(HEADER.size)
     process_records, pacing = {}, {}
     for name in processes:
-        buffer = _buffer(f"PROCESS_{name.upper()}", at, _shape(PROCESS_FIELDS), f"process {name}")
+        buffer = _buffer(f"PROCESS_{name.upper()}", at, _shape(PROCESS_FIELDS))
         process_records[name] = buffer
         at = align(at + buffer.size)
-        pace = _buffer(f"PACE_{name.upper()}", at, _shape(PACE_FIELDS), f"process {name} pacing")
+        pace = _buffer(f"PACE_{name.upper()}", at, _shape(PACE_FIELDS))
         pacing[name] = pace
         at = align(at + pace.size)
     modules, operators = {}, {}
@@ -736,28 +736,28 @@ def plan_layout(
         if c.cause:  # the chain of subordinates' errors its ERROR comes from (rcs/contract.py)
             results.append(("cause", "Q", 0))
         parts = {
-            "command": ([*_shape(COMMAND_HEAD_FIELDS), *params], "command in"),
-            "status": ([*_shape(STATUS_FIELDS), *results], "status out"),
-            "mode": (_shape(MODE_FIELDS), "execution mode"),
-            "perf": (_shape(PERF_FIELDS), "performance"),
+            "command": [*_shape(COMMAND_HEAD_FIELDS), *params],
+            "status": [*_shape(STATUS_FIELDS), *results],
+            "mode": _shape(MODE_FIELDS),
+            "perf": _shape(PERF_FIELDS),
         }
         made = {}
-        for part, (fields, doc) in parts.items():
-            made[part] = _buffer(f"{prefix}_{part.upper()}", at, fields, f"{c.name} {doc}")
+        for part, fields in parts.items():
+            made[part] = _buffer(f"{prefix}_{part.upper()}", at, fields)
             at = align(at + made[part].size)
         modules[c.name] = ir.ModuleBuffers(**made)
     world_buffers = []
     for f in world:
-        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [_typed(f.name, f.type)], f.doc)
+        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [_typed(f.name, f.type)])
         world_buffers.append(buffer)
         at = align(at + buffer.size)
     # Overrides: one flag, then each world field's override record (rcs/override.py).
-    overrides = _buffer("OVERRIDES", at, _shape(OVERRIDES_FIELDS), "some world field is overridden")
+    overrides = _buffer("OVERRIDES", at, _shape(OVERRIDES_FIELDS))
     at = align(at + overrides.size)
     override_fields = []
     for f in world:
         fields = [*_shape(OVERRIDE_HEAD_FIELDS), _typed(f.name, f.type)]
-        buffer = _buffer(f"OVERRIDE_{f.name.upper()}", at, fields, f"{f.name}'s override")
+        buffer = _buffer(f"OVERRIDE_{f.name.upper()}", at, fields)
         override_fields.append(buffer)
         at = align(at + buffer.size)
     # I/O devices (rcs/io_cycle.py): each one's record, its state and counts, after the rest.
@@ -765,7 +765,7 @@ def plan_layout(
     for name in devices:
         shape = [(f, "q", 0) for f in DEVICE_FIELDS[:-1]]
         shape.append((DEVICE_FIELDS[-1], f"{ADDRESS_BYTES}s", ADDRESS_BYTES))  # its address
-        io[name] = _buffer(f"IO_{name.upper()}", at, shape, f"I/O device {name}")
+        io[name] = _buffer(f"IO_{name.upper()}", at, shape)
         at = align(at + io[name].size)
     # Time in each state (rcs/state_time.py): per controller and stand-in, the state it is in
     # and the process cycle it entered it, then the cycles of its process spent in each state
@@ -776,7 +776,7 @@ def plan_layout(
             continue
         shape = [("state", "q", 0), ("since", "Q", 0)]
         shape += [(state, "Q", 0) for state in ("NOP", *c.states)]
-        state_time[c.name] = _buffer(f"TIME_{c.name.upper()}", at, shape, f"{c.name} time in state")
+        state_time[c.name] = _buffer(f"TIME_{c.name.upper()}", at, shape)
         at = align(at + state_time[c.name].size)
     layout = ir.Layout(
         process_records,
@@ -801,25 +801,22 @@ def _operator_buffers(
     command, status and answer record), from `at`; and the offset after them."""
     prefix = c.name.upper()
     own = {}
-    for part, shape, doc in (
-        ("mode", MODE_FIELDS, "execution mode"),
-        ("perf", PERF_FIELDS, "performance"),
-    ):
-        own[part] = _buffer(f"{prefix}_{part.upper()}", at, _shape(shape), f"{c.name} {doc}")
+    for part, shape in (("mode", MODE_FIELDS), ("perf", PERF_FIELDS)):
+        own[part] = _buffer(f"{prefix}_{part.upper()}", at, _shape(shape))
         at = align(at + own[part].size)
     channels = {}
     # what the person records with a DONE: in the answer record, copied to the status
     results = [_typed(f"result_{r.name}", r.type) for r in c.results]
     for client in c.clients:
-        parts = {
-            "command": ([*_shape(COMMAND_HEAD_FIELDS), *params], f"{client}'s command in"),
-            "status": ([*_shape(STATUS_FIELDS), *results], f"status out to {client}"),
-            "answer": ([*_shape(ANSWER_FIELDS), *results], f"the answer to {client}'s request"),
+        parts = {  # its command in, its status out, the answer to its request
+            "command": [*_shape(COMMAND_HEAD_FIELDS), *params],
+            "status": [*_shape(STATUS_FIELDS), *results],
+            "answer": [*_shape(ANSWER_FIELDS), *results],
         }
         made = {}
-        for part, (fields, doc) in parts.items():
+        for part, fields in parts.items():
             const = f"{prefix}_{client.upper()}_{part.upper()}"
-            made[part] = _buffer(const, at, fields, f"{c.name} {doc}")
+            made[part] = _buffer(const, at, fields)
             at = align(at + made[part].size)
         channels[client] = ir.Channel(**made)
     return ir.OperatorBuffers(own["mode"], own["perf"], channels), at
