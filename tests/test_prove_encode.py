@@ -7,7 +7,6 @@ equality), a fresh value that is free both ways, so no run is called impossible 
 from __future__ import annotations
 
 from fractions import Fraction
-from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
@@ -31,8 +30,9 @@ from rcsgen.compiler.expressions.nodes import (
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove.adapter import Skeleton, skeleton
 from rcsgen.compiler.prove.lost import RuntimeReaction
-from rcsgen.compiler.prove.model import Model, explore
+from rcsgen.compiler.prove.model import Graph, Model, explore
 from rcsgen.compiler.prove.numbers import witness
+from rcsgen.compiler.prove.system import _shortest_form
 from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS
 
 z3 = pytest.importorskip("z3")
@@ -204,21 +204,28 @@ processes:
 """
 
 
+@pytest.fixture(scope="module")
+def dial(tmp_path_factory: pytest.TempPathFactory) -> Graph:
+    """DIAL's explored model."""
+    directory = tmp_path_factory.mktemp("dial")
+    (directory / "system.yaml").write_text(DIAL_SYSTEM)
+    (directory / "dial.yaml").write_text(DIAL)
+    front = compile_paths([directory])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
+    system = front.systems[0]
+    sk = skeleton(system, system.controllers[0], frozenset({"lamp"}))
+    return explore(Model(sk, {}, RuntimeReaction(system)))
+
+
 def test_a_witness_gives_the_parameters_read_later_on_the_cycle_that_brings_the_command(
-    tmp_path: Path,
+    dial: Graph,
 ) -> None:
     """numbers.witness: SET's cycle reads `on`, `mode` and world.pos; S1, a cycle later,
     reads every parameter but `mode`. The run to its DONE carries one solution's values on
     SET's own cycle, as the model's valuations hold them (an int and a float as fractions,
     a bool, a text), for the replay; the model's own world value and enumeration choice
     stay (an enumeration's index is no value name), each atom once."""
-    (tmp_path / "system.yaml").write_text(DIAL_SYSTEM)
-    (tmp_path / "dial.yaml").write_text(DIAL)
-    front = compile_paths([tmp_path])
-    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
-    system = front.systems[0]
-    sk = skeleton(system, system.controllers[0], frozenset({"lamp"}))
-    graph = explore(Model(sk, {}, RuntimeReaction(system)))
+    graph = dial
     s, edge, done = next(
         (s, e, t)
         for s, edges in graph.edges.items()
@@ -250,3 +257,22 @@ def test_a_witness_gives_the_parameters_read_later_on_the_cycle_that_brings_the_
         (param, "on"): True,
     }
     assert type(given[(param, "n")]) is Fraction and given[(param, "on")] is True
+
+
+def test_a_run_is_in_shortest_form_when_the_model_reaches_its_last_cycle_the_shortest_way(
+    dial: Graph,
+) -> None:
+    """system._shortest_form, which says whether numbers.search may look for another run to
+    a finding's cycle: the model's shortest way to the last cycle's start, then that cycle
+    (a run of one cycle starts at the initial state); not when an earlier cycle differs."""
+    graph = dial
+    init, first = (
+        next((e, t) for e, t in graph.edges[graph.initial] if t.command == c and t.state == s)
+        for c, s in (("INIT", "NOP"), ("SET", "S1"))
+    )
+    assert _shortest_form(graph, [first]) and _shortest_form(graph, [init])
+    done = next((e, t) for e, t in graph.edges[first[1]] if e.report == "DONE")
+    run = [first, done, graph.edges[done[1]][0]]
+    assert _shortest_form(graph, run)
+    # the same cycles after another first cycle: not the model's way to the last one
+    assert not _shortest_form(graph, [init, *run[1:]])
