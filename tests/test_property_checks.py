@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from rcsgen.compiler.diagnostics import Diagnostic
 from rcsgen.compiler.frontend import compile_paths
 
 MINER = Path(__file__).resolve().parent.parent / "specs" / "miner"
@@ -114,7 +115,7 @@ CASES = {
 
 
 @pytest.fixture(scope="module")
-def found(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[str, str, str]]:
+def located(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Diagnostic]:
     """Each added property's error, by the property's name (found from the line it is on)."""
     copy = tmp_path_factory.mktemp("props") / "miner"
     shutil.copytree(MINER, copy, ignore=shutil.ignore_patterns("scenarios", "__pycache__"))
@@ -134,10 +135,27 @@ def found(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[str, str,
         # the error is on the property's condition line(s), just after its name
         name = next(line_of[n] for n in sorted(line_of, reverse=True) if n < d.span.line)
         assert name not in out, d.render()
-        out[name] = (d.code, d.message, d.hint)
+        out[name] = d
     return out
+
+
+@pytest.fixture(scope="module")
+def found(located: dict[str, Diagnostic]) -> dict[str, tuple[str, str, str]]:
+    return {name: (d.code, d.message, d.hint) for name, d in located.items()}
 
 
 @pytest.mark.parametrize("name", CASES)
 def test_each_wrong_property_gets_its_one_error(found, name: str) -> None:
     assert found.get(name) == CASES[name][1]
+
+
+@pytest.mark.parametrize(
+    ("name", "at"),
+    [("no_such_status", "DONNE"), ("deeper_name", "co.status.x"), ("sent_no_command", "cr.SUMPP")],
+)
+def test_an_error_inside_a_condition_is_located_at_what_it_is_about(
+    located: dict[str, Diagnostic], name: str, at: str
+) -> None:
+    """The column of the name the error is about, in the condition's line (not its start)."""
+    line = f"    {CASES[name][0]}"
+    assert located[name].span.col == line.index(at) + 1, located[name].render()

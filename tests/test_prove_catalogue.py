@@ -235,6 +235,39 @@ commands:
           do: [report: DONE]
 """
 
+# top -> mid -> sub: mid's GO may report ERROR on a world condition while sub's MOVE still
+# runs (a loose ERROR: its contract); top reads it and reports ERROR without withdrawing mid:
+# W701 at top. mid's TRY reports ERROR only on sub's own, sub stopped: top's TRY is fine
+LOOSE_SYSTEM = TINY_SYSTEM.replace("modules: [top, sub]", "modules: [top, mid, sub]")
+LOOSE_MID = """controller: mid
+title: Mid
+subordinates: [sub]
+world:
+  reads: [pos]
+commands:
+  GO:
+    first_match: [S1]
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR or world.pos < -2.0
+          do: [report: ERROR]
+"""
+LOOSE_MID += WAITS.replace("GO:", "TRY:")
+LOOSE_TOP = """controller: top
+title: Top
+subordinates: [mid]
+commands:
+"""
+LOOSE_TOP += "".join(
+    WAITS.replace("GO:", f"{c}:").replace("sub.", "mid.").replace("mid.MOVE", f"mid.{c}")
+    for c in ("GO", "TRY")
+)
+
 TOP = "controller: top\ntitle: Top\nsubordinates: [sub]\ncommands:\n"
 CONTINUE = ("subordinates: [sub]\n", "subordinates: [sub]\non_lost:\n  sub: continue\n")
 # LATCH_TOP's HALT without the lamp: HALT sub, wait for it
@@ -262,7 +295,7 @@ properties:
     always: not (top.status == ERROR)
 commands:
 """
-# case -> (system.yaml, sub.yaml, top.yaml[, sub2.yaml])
+# case -> (system.yaml, then the controllers' files: sub.yaml, top.yaml[, sub2.yaml or mid.yaml])
 CASES = {
     "goes_round": (TINY_SYSTEM, TINY_SUB, TOP + GOES_ROUND),
     "motion_after_halt": (TINY_SYSTEM, TINY_SUB, TOP + MOTION_AFTER_HALT),
@@ -307,6 +340,7 @@ CASES = {
             + "    states:",
         ),
     ),
+    "loose_error": (LOOSE_SYSTEM, FAILING_SUB, LOOSE_TOP, LOOSE_MID),
     "not_withdrawn": (
         PAIR_SYSTEM,
         FAILING_SUB,
@@ -320,9 +354,9 @@ EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"
 def proven(case: str) -> str:
     """What `rcsgen prove --no-replay` prints in the current directory, with the case's
     specs written there, and its exit code; the solver's times masked."""
-    names = ("system", "sub", "top", "sub2")[: len(CASES[case])]
-    for name, text in zip(names, CASES[case], strict=True):
-        Path(f"{name}.yaml").write_text(text)
+    for text in CASES[case]:  # system.yaml, then each controller's file by its mnemonic
+        kind, name = text.split("\n", 1)[0].split(": ")
+        Path(f"{'system' if kind == 'system' else name}.yaml").write_text(text)
     result = CliRunner().invoke(main, ["prove", ".", "--no-replay"])
     return f"exit {result.exit_code}\n" + re.sub(r" +\d+ ms \(\d+ ms CPU\)", " T", result.output)
 

@@ -6,12 +6,14 @@ equality), a fresh value that is free both ways, so no run is called impossible 
 
 from __future__ import annotations
 
+from fractions import Fraction
 from types import SimpleNamespace
 from typing import Any
 
 import pytest
 from test_prove_adapter import arm  # noqa: F401  (the fixture: arm's skeleton)
 
+from rcsgen.compiler.analysis.tables import Atom
 from rcsgen.compiler.expressions.nodes import (
     Binary,
     BoolOp,
@@ -25,7 +27,12 @@ from rcsgen.compiler.expressions.nodes import (
     RefKind,
     Unary,
 )
-from rcsgen.compiler.prove.adapter import Skeleton
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.prove.adapter import Skeleton, skeleton
+from rcsgen.compiler.prove.lost import RuntimeReaction
+from rcsgen.compiler.prove.model import Graph, Model, explore
+from rcsgen.compiler.prove.numbers import witness
+from rcsgen.compiler.prove.system import _shortest_form
 from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS
 
 z3 = pytest.importorskip("z3")
@@ -154,3 +161,118 @@ def test_what_z3_cannot_follow_is_free_and_the_rest_is_decided(arm: Skeleton) ->
     fresh: dict[str, Any] = {}
     first = enc.value(X, {}, fresh)
     assert enc.value(X, {}, fresh) is first and set(fresh) == {"x"}
+
+
+DIAL = """\
+controller: dial
+title: Dial
+world:
+  reads: [pos]
+  writes: [lamp]
+commands:
+  SET:
+    params:
+      n: {type: int, doc: A count.}
+      x: {type: float, doc: A level.}
+      on: {type: bool, doc: A switch.}
+      name: {type: str, doc: A name.}
+      mode: {type: enum, values: [SLOW, FAST], doc: A speed.}
+    states:
+      S0:
+        - when: on and mode == FAST and world.pos > 1.0
+          next: S1
+        - when: not on or mode == SLOW or world.pos <= 1.0
+          do: [{report: ERROR}]
+      S1:
+        - when: n == 3 and x > 0.25 and x < 0.5 and on and name == "b"
+          do: [{set: {world.lamp: true}}, {report: DONE}]
+        - when: not on
+          do: [{report: ERROR}]
+        - when: on and (n != 3 or x <= 0.25 or x >= 0.5 or name != "b")
+          do: [{report: ERROR}]
+"""
+DIAL_SYSTEM = """\
+system: dial
+title: One dial
+cycle_period: 0.1
+world:
+  pos: {type: float, initial: 0.0}
+  lamp: {type: bool, initial: false, actuator: true, safe: false}
+processes:
+  p:
+    modules: [dial]
+"""
+
+
+@pytest.fixture(scope="module")
+def dial(tmp_path_factory: pytest.TempPathFactory) -> Graph:
+    """DIAL's explored model."""
+    directory = tmp_path_factory.mktemp("dial")
+    (directory / "system.yaml").write_text(DIAL_SYSTEM)
+    (directory / "dial.yaml").write_text(DIAL)
+    front = compile_paths([directory])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
+    system = front.systems[0]
+    sk = skeleton(system, system.controllers[0], frozenset({"lamp"}))
+    return explore(Model(sk, {}, RuntimeReaction(system)))
+
+
+def test_a_witness_gives_the_parameters_read_later_on_the_cycle_that_brings_the_command(
+    dial: Graph,
+) -> None:
+    """numbers.witness: SET's cycle reads `on`, `mode` and world.pos; S1, a cycle later,
+    reads every parameter but `mode`. The run to its DONE carries one solution's values on
+    SET's own cycle, as the model's valuations hold them (an int and a float as fractions,
+    a bool, a text), for the replay; the model's own world value and enumeration choice
+    stay (an enumeration's index is no value name), each atom once."""
+    graph = dial
+    s, edge, done = next(
+        (s, e, t)
+        for s, edges in graph.edges.items()
+        for e, t in edges
+        if e.report == "DONE" and t.command == "SET"
+    )
+    run = [*graph.path_to(s), (edge, done)]
+    assert [e.new for e, _ in run] == ["SET", None]
+    found = witness(z3, graph, run)
+    assert found is not None and found[1] == run[1]  # the later cycle as the model found it
+    valuation = found[0][0].valuation
+    param, world = Atom.PARAM, Atom.WORLD
+    assert [k for k, _ in valuation] == [
+        (param, "mode"),  # the model's, kept in its order
+        (world, "pos"),
+        (param, "n"),  # z3's, by name
+        (param, "name"),
+        (param, "on"),
+        (param, "x"),
+    ]
+    given = dict(valuation)
+    x = given.pop((param, "x"))
+    assert type(x) is Fraction and Fraction(1, 4) < x < Fraction(1, 2)
+    assert given == {
+        (param, "mode"): "FAST",
+        (world, "pos"): dict(run[0][0].valuation)[(world, "pos")],
+        (param, "n"): Fraction(3),
+        (param, "name"): "b",
+        (param, "on"): True,
+    }
+    assert type(given[(param, "n")]) is Fraction and given[(param, "on")] is True
+
+
+def test_a_run_is_in_shortest_form_when_the_model_reaches_its_last_cycle_the_shortest_way(
+    dial: Graph,
+) -> None:
+    """system._shortest_form, which says whether numbers.search may look for another run to
+    a finding's cycle: the model's shortest way to the last cycle's start, then that cycle
+    (a run of one cycle starts at the initial state); not when an earlier cycle differs."""
+    graph = dial
+    init, first = (
+        next((e, t) for e, t in graph.edges[graph.initial] if t.command == c and t.state == s)
+        for c, s in (("INIT", "NOP"), ("SET", "S1"))
+    )
+    assert _shortest_form(graph, [first]) and _shortest_form(graph, [init])
+    done = next((e, t) for e, t in graph.edges[first[1]] if e.report == "DONE")
+    run = [first, done, graph.edges[done[1]][0]]
+    assert _shortest_form(graph, run)
+    # the same cycles after another first cycle: not the model's way to the last one
+    assert not _shortest_form(graph, [init, *run[1:]])

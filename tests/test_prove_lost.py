@@ -11,7 +11,9 @@ from pathlib import Path
 import test_prove_catalogue as catalogue
 
 from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.prove.adapter import skeleton
 from rcsgen.compiler.prove.lost import Effect, RuntimeReaction, layout_view
+from rcsgen.compiler.prove.model import Model
 
 SYSTEM = """\
 system: three
@@ -108,3 +110,37 @@ def test_under_on_lost_continue_the_loss_is_contained(tmp_path: Path) -> None:
     # sub reads leaf as ERROR (LOST); only q's actuator is latched; nobody goes safe
     assert reaction.effect("sub", "q") == Effect(False, ("leaf",), frozenset({"lamp"}))
     assert reaction.effect("top", "q") == Effect(False, (), frozenset({"lamp"}))
+
+
+def test_two_processes_lost_together_read_every_contained_subordinate_as_error(
+    tmp_path: Path,
+) -> None:
+    """Model.lost_effects: leaf in q and leaf2 in r, both `on_lost: continue` under sub; with
+    q and r lost at once sub reads both as ERROR (each loss adds its own), none latched."""
+    directory = tmp_path / "four"
+    directory.mkdir()
+    texts = {
+        "system": SYSTEM.replace("[leaf]\n", "[leaf]\n  r:\n    modules: [leaf2]\n"),
+        "top": TOP,
+        "sub": SUB.replace(
+            "[leaf]\n", "[leaf, leaf2]\non_lost: {leaf: continue, leaf2: continue}\n"
+        )
+        .replace("send: leaf.LIGHT]", "send: leaf.LIGHT, send: leaf2.LIGHT]")
+        .replace("leaf.status == DONE", "leaf.status == DONE and leaf2.status == DONE")
+        .replace("leaf.status == ERROR", "leaf.status == ERROR or leaf2.status == ERROR"),
+        "leaf": LEAF,
+        "leaf2": LEAF.replace("leaf", "leaf2")
+        .replace("  writes: [lamp]\n", "")
+        .replace("{set: {world.lamp: true}}, ", ""),
+    }
+    for name, text in texts.items():
+        (directory / f"{name}.yaml").write_text(text)
+    front = compile_paths([directory])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
+    system = front.systems[0]
+    controller = next(c for c in system.controllers if c.name == "sub")
+    sk = skeleton(system, controller, frozenset({"drive", "lamp"}))
+    model = Model(sk, {}, RuntimeReaction(system))
+    assert sk.subs == ("leaf", "leaf2") and model.lossy == ("q", "r")
+    assert model.lost_effects(("q",)) == (frozenset(), (0,))
+    assert model.lost_effects(("q", "r")) == (frozenset(), (0, 1))

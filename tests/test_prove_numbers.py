@@ -17,6 +17,7 @@ import pytest
 from click.testing import CliRunner
 
 from rcsgen.cli import main
+from rcsgen.compiler.analysis.tables import Atom
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove.system import prove
 
@@ -76,6 +77,10 @@ commands:
             - set: {n: n + 1}
 """
 COUNTS = "            - set: {n: n + 1}\n"
+# GO given how far it may go: DONE early also needs p > 0, which z3 picks for the replay
+TOP_FAR = TOP.replace(
+    "  GO:\n", "  GO:\n    params:\n      p: {type: int, doc: How far.}\n"
+).replace("when: n >= 2\n", "when: n >= 2 and p > 0\n")
 
 
 def _system(tmp_path: Path, top: str = TOP) -> Path:
@@ -98,14 +103,17 @@ def _done_early(directory: Path):
 
 def test_an_impossible_count_is_replaced_by_a_longer_run_that_counts_up(tmp_path):
     """The model's shortest run reports DONE in the cycle after GO (n free); z3 knows n is
-    0 there, and finds the run that counts twice first: four cycles, which the generated
-    code follows to the violation."""
+    0 there, and finds the run that counts twice first: four cycles, with a value of GO's
+    parameter p that lets DONE come (p > 0), which the generated code follows to the
+    violation."""
     pytest.importorskip("z3")
-    directory = _system(tmp_path)
-    _, f = _done_early(directory)
+    directory = _system(tmp_path, TOP_FAR)
+    proof, f = _done_early(directory)
     rules = [edge.rules for edge, _ in f.trace]
     assert rules == [("GO/S0/1",), ("GO/S1/2",), ("GO/S1/2",), ("GO/S1/1",)], rules
     assert f.verdict == "violated" and f.replay == ""  # left to the replay
+    assert proof.notes == []  # z3 decided it: no note that z3 is missing
+    assert f.trace[0][0].valuation == (((Atom.PARAM, "p"), 1),)  # one solution's p, for the replay
     out = CliRunner().invoke(main, ["prove", str(directory), "--select", "W708"])
     assert "rule GO/S1/1 of top reports DONE" in out.output
     line = next(x for x in out.output.splitlines() if "rule GO/S1/1 of top reports DONE" in x)
@@ -119,8 +127,11 @@ def test_a_count_no_run_reaches_makes_the_finding_undecided_with_why(tmp_path):
     top = TOP.replace(COUNTS, "            - set: {n: 0}\n")
     _, f = _done_early(_system(tmp_path, top))
     assert f.verdict == "undecided" and not f.certain
-    assert "impossible with the values its guards read (z3" in f.replay
-    assert "no possible run to that cycle up to" in f.replay
+    # the shortest run is 2 cycles: others were looked for up to numbers.EXTRA_CYCLES more
+    assert f.replay == (
+        "impossible with the values its guards read (z3: locals, parameters, world values); "
+        "no possible run to that cycle up to 7 cycles"
+    )
 
 
 def test_without_z3_the_numbers_are_not_checked_and_prove_says_so(tmp_path, monkeypatch):

@@ -18,6 +18,8 @@ import test_check_messages as checks
 from click.testing import CliRunner
 
 from rcsgen.cli import main
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.prove.system import prove
 
 
 def edited(text: str, *edits: tuple[str, str]) -> str:
@@ -213,3 +215,18 @@ EXPECTED = Path(__file__).parent / "cases" / "prove_small"
 def test_prove_says_what_holds_and_what_breaks_it(tmp_path, monkeypatch, variant: str) -> None:
     said = proven(tmp_path, monkeypatch, *variants()[variant])
     assert said == (EXPECTED / f"{variant}.txt").read_text()
+
+
+DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+
+
+def test_proving_one_controller_proves_those_below_it_and_their_stand_ins() -> None:
+    """system.prove's `only` (the seeded-bug campaign proves one controller): the one
+    named, those below it and each one's stand-in (duo's arm_sim stands in for arm), whose
+    contracts it needs."""
+    front = compile_paths([DUO])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
+    system = front.systems[0]
+    assert sorted(prove(system, only="top").controllers) == ["arm", "arm_sim", "top"]
+    assert sorted(prove(system, only="arm").controllers) == ["arm", "arm_sim"]
+    assert sorted(prove(system, only="arm_sim").controllers) == ["arm_sim"]
