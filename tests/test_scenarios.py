@@ -7,7 +7,6 @@ these tests are about the run around them."""
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from pathlib import Path
 
@@ -250,7 +249,7 @@ def test_golden_comparison_from_the_command_line(miner: Path) -> None:
     assert other.exit_code == 1
     [line] = [x for x in other.output.splitlines() if "error[E417]" in x]
     cycle = int(line.split("differs from the golden trace: cycle ")[1].split(":")[0])
-    shown = os.path.relpath(golden, Path.cwd())
+    shown = golden.resolve().as_posix()  # (outside the test's working directory: shown whole)
     assert line.startswith(f"{shown}:{cycle}:1: error[E417]")
 
 
