@@ -268,42 +268,6 @@ def test_a_hook_call_accepts_exactly_what_each_targets_test_accepts() -> None:
                 call(owner, "R/S0/1")
 
 
-def test_a_usual_result_is_tested_without_calling_a_check(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A result of one to three values of exactly their targets' types is tested in the
-    call's own frame (hooks run every cycle); only another result (a Fraction for a float,
-    four values) is handed to `result_fits`' check."""
-    from types import SimpleNamespace
-
-    from rcsgen.runtime import deadline
-
-    handed: list[object] = []
-
-    def counted(kinds: str) -> object:
-        def fits(result: object) -> bool:
-            handed.append(result)
-            return True
-
-        return fits
-
-    monkeypatch.setattr(deadline, "result_fits", counted)
-    owner = SimpleNamespace(cycles=0)
-    for kinds, usual, other in (
-        ("f", 0.5, Fraction(1, 2)),
-        ("if", (3, 0.5), (3, Fraction(1, 2))),
-        ("fib", (0.5, 3, True), (0.5, 3, 1)),
-        ("bfff", (True, 0.5, 0.5, 0.5), None),
-    ):
-        hooks = SimpleNamespace(answer=lambda usual=usual: usual)
-        call = deadline.hook("m", hooks, "answer", 1.0, kinds)  # type: ignore[arg-type]
-        handed.clear()
-        assert call(owner, "R/S0/1") == usual
-        assert handed == ([usual] if len(kinds) > 3 else []), kinds
-        if other is not None:
-            hooks.answer = lambda other=other: other
-            call(owner, "R/S0/1")
-            assert handed == [other], kinds
-
-
 def test_other_numeric_types_that_are_numbers_are_accepted(hooked: Path) -> None:
     """A Fraction (like a numpy float) is a real number: fine for a float target; a bool is
     not a number there, and not an int either."""
