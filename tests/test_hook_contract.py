@@ -231,43 +231,6 @@ def test_the_fast_check_of_a_usual_result_agrees_with_the_check_value_by_value()
             assert result_fits(kinds)(value) is expected, (kinds, value)
 
 
-def test_a_hook_call_accepts_exactly_what_each_targets_test_accepts() -> None:
-    """The call tests a usual result of one to three float/int/bool values inline (no call
-    per test), and leaves anything else to `result_fits`: for every mix of awkward values
-    it returns the result just when each target's own test accepts its value, and raises
-    one HookError naming the result otherwise."""
-    from itertools import product
-    from types import SimpleNamespace
-
-    from rcsgen.runtime.contract import HookError, kind_fits
-    from rcsgen.runtime.deadline import hook
-
-    big = 1.7e308
-    values = [0.5, -big, big, float("nan"), float("inf"), -float("inf"), 3, 2**63 - 1]
-    values += [-(2**63), 2**63, True, False, Fraction(1, 3), "x"]
-    hooks = SimpleNamespace(answer=None)
-    owner = SimpleNamespace(cycles=7)
-    for kinds in ("f", "i", "b", "ff", "if", "fib", "bfff"):
-        call = hook("m", hooks, "answer", 1.0, kinds)  # type: ignore[arg-type]
-        tests = [kind_fits(token) for token in kinds]
-        shapes = [(v,) for v in values] if len(kinds) < 4 else [(v, 1.0, 2.0, 3.0) for v in values]
-        if 1 < len(kinds) < 4:
-            shapes = list(product(values, repeat=len(kinds)))
-        for value in shapes:
-            expected = all(test(v) for test, v in zip(tests, value, strict=True))
-            result = value[0] if len(kinds) == 1 else value
-            hooks.answer = lambda result=result: result
-            if expected:
-                assert call(owner, "R/S0/1") is result, (kinds, value)
-            else:
-                with pytest.raises(HookError, match=r"rule R/S0/1, cycle 8\)"):
-                    call(owner, "R/S0/1")
-        for wrong in ((1.0,) * (len(kinds) + 1), [1.0] * len(kinds), None):
-            hooks.answer = lambda wrong=wrong: wrong
-            with pytest.raises(HookError):
-                call(owner, "R/S0/1")
-
-
 def test_other_numeric_types_that_are_numbers_are_accepted(hooked: Path) -> None:
     """A Fraction (like a numpy float) is a real number: fine for a float target; a bool is
     not a number there, and not an int either."""

@@ -705,6 +705,8 @@ def result_fits(kinds: str) -> Callable[[Any], bool]:
     # values finite (a NaN or an infinity in it is not; a sum that overflowed falls
     # through); any other result gets the check above, which accepts all this one does.
     shape = tuple(_EXACT[token] for token in tokens)
+    if count in (2, 3):  # most hooks: each value's type and range tested by name (~2x faster)
+        return _exact_fits_of(shape, tuple(_RANGE[token] for token in tokens), fits)
     ints = tuple(index for index, token in enumerate(tokens) if token == "i")
 
     def exact_fits(result: Any) -> bool:
@@ -724,16 +726,40 @@ _EXACT = {"f": float, "i": int, "b": bool}  # a kind token -> the type its usual
 _RANGE = {"f": (-FLOAT_MAX, FLOAT_MAX), "i": (INT_MIN, INT_MAX), "b": (False, True)}
 
 
-def usual_result(kinds: str) -> list[tuple[type, tuple[Any, Any]]]:
-    """The usual result of a hook whose targets are of `kinds`, as its call tests it inline
-    (rcs/deadline.py `hook`, no call per test): for each of one to three values of float, int
-    or bool targets, the exact type it has and the range it is in (a NaN is in none). [] for
-    any other kinds: the call leaves the result to `result_fits`, which accepts all a test
-    of these accepts."""
-    tokens = kind_tokens(kinds)
-    if not 1 <= len(tokens) <= 3 or not set(tokens) <= set(_EXACT):
-        return []
-    return [(_EXACT[token], _RANGE[token]) for token in tokens]
+def _exact_fits_of(
+    shape: tuple[type, ...], ranges: tuple[tuple[Any, Any], ...], fits: Callable[[Any], bool]
+) -> Callable[[Any], bool]:
+    """`result_fits`'s test of a result of 2 or 3 values: a tuple of exactly the types of
+    `shape`, each value in its range, is accepted by its values' names (no tuple of types
+    built, no sum); anything else is `fits`'s to judge, which accepts all this one does."""
+    if len(shape) == 2:
+        (t0, t1), ((l0, h0), (l1, h1)) = shape, ranges
+
+        def fits2(result: Any) -> bool:
+            if type(result) is tuple and len(result) == 2:
+                a, b = result
+                if type(a) is t0 and type(b) is t1 and l0 <= a <= h0 and l1 <= b <= h1:
+                    return True
+            return fits(result)
+
+        return fits2
+    (t0, t1, t2), ((l0, h0), (l1, h1), (l2, h2)) = shape, ranges
+
+    def fits3(result: Any) -> bool:
+        if type(result) is tuple and len(result) == 3:
+            a, b, c = result
+            if (
+                type(a) is t0
+                and type(b) is t1
+                and type(c) is t2
+                and l0 <= a <= h0
+                and l1 <= b <= h1
+                and l2 <= c <= h2
+            ):
+                return True
+        return fits(result)
+
+    return fits3
 
 
 def plan_problem(steps: object, kinds: str, capacity: int) -> str:

@@ -36,7 +36,7 @@ from collections.abc import Callable
 from types import ModuleType
 from typing import Any, ClassVar, TypeVar
 
-from .contract import HookError, HookOverrun, result_fits, shared, usual_result
+from .contract import HookError, HookOverrun, result_fits, shared
 
 FACTORY_DEADLINE = 30.0  # seconds a `hooks_state` factory may take (a map to load, a file)
 TICK = 0.02  # seconds between two looks of the watcher (a quarter of a shorter deadline)
@@ -93,16 +93,8 @@ def hook(
     `deadline` seconds; whatever it raises, an overrun too, is raised as a `HookError` naming
     the module, the hook, `rule` and the module's cycle; a result that does not fit `kinds`
     (None: the caller checks it, or ignores it) likewise. One frame for the whole call: the
-    deadline's bookkeeping is `within`'s, and the usual result's check (`usual_result`: one
-    to three values of exactly their targets' types, in range) is written here too; any
-    other result goes to `result_fits`, which accepts all this check does."""
+    deadline's bookkeeping is `within`'s, inlined."""
     fits = None if kinds is None else result_fits(kinds)
-    usual = usual_result(kinds or "")
-    count = len(usual)
-    # the types and ranges the check below reads: a result of one value is tested alone; of
-    # two, its second value's stand for a third
-    padded = (usual + usual[-1:] * 2)[:3] or [(object, (0, 0))] * 3  # ([]: none tested)
-    (t0, (l0, h0)), (t1, (l1, h1)), (t2, (l2, h2)) = padded
     state = _STATE
 
     def call(owner: Any, rule: str, *args: Any) -> Any:
@@ -125,20 +117,6 @@ def hook(
                 raise HookOverrun(deadline, took, interrupted=False)
         except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError(module, name, rule, owner.cycles) from error
-        if count == 1:
-            if type(result) is t0 and l0 <= result <= h0:
-                return result
-        elif count and type(result) is tuple and len(result) == count:
-            a, b, c = result[0], result[1], result[-1]  # (of two: c is b)
-            if (
-                type(a) is t0
-                and type(b) is t1
-                and type(c) is t2
-                and l0 <= a <= h0
-                and l1 <= b <= h1
-                and l2 <= c <= h2
-            ):
-                return result
         if fits is not None and not fits(result):
             raise HookError(module, name, rule, owner.cycles, result, kinds or "")
         return result
