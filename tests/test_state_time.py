@@ -9,8 +9,10 @@ from __future__ import annotations
 import json
 from collections import Counter
 from pathlib import Path
+from struct import Struct
 
 from rcsgen.runtime.block import Block
+from rcsgen.runtime.contract import STATUS_FIELDS, struct_format
 from rcsgen.runtime.operate.ctl import main
 from rcsgen.runtime.state_time import shares, totals
 from rcsgen.tools.harness import Harness
@@ -90,3 +92,43 @@ def test_a_restarted_process_keeps_the_counts_and_closes_what_it_left_open():
         assert totals(dict(record.read(harness.buf)), 0) == was
         again.tick(harness.buf, 1, 0)  # S0 from the new run's cycle 0, for 5 cycles
         assert totals(dict(record.read(harness.buf)), 5) == {**was, "S0": was["S0"] + 5}
+
+
+def test_after_a_settled_look_only_the_modules_whose_status_word_moved_are_looked_at():
+    """The loop looks at a module's state only in a cycle in which the word holding it (and
+    its rule) moved in the block, once a look has left every clock at its module's state:
+    every other module's state is as the last look found it."""
+    with Harness.load(ROOT / "generated" / "miner", ROOT / "specs" / "miner", "pc1") as harness:
+        harness.command("co", "SUMP_SHEAR_CUSP")
+        harness.cycle(3)
+        process = harness.processes["pc1"]
+        status, looked = harness.layout.STATUS_OUT, Counter()
+
+        class Watched:  # a module whose state the loop's look reads, counted
+            def __init__(self, name: str, module: object) -> None:
+                self.name, self.module = name, module
+
+            @property
+            def state(self) -> int:
+                looked[self.name] += 1
+                return int(self.module.state)
+
+        names = list(process.timed)
+        process.timed = {n: (clock, Watched(n, m)) for n, (clock, m) in process.timed.items()}
+        process._timed_pairs = tuple(process.timed.values())
+        words = process.words
+        names_in_record = [field for field, _ in STATUS_FIELDS]
+        state_at = Struct(struct_format(STATUS_FIELDS[: names_in_record.index("state")])).size
+        word_of = {n: (status[n].offset + state_at) >> 3 for n in names}  # its state and rule
+
+        def state_words() -> dict[str, int]:
+            return {n: words[word_of[n]] for n in names}
+
+        moved: Counter[str] = Counter()
+        for _ in range(60):
+            before = state_words()
+            harness.cycle()
+            after = state_words()
+            moved.update(n for n in names if after[n] != before[n])
+        assert sum(moved.values()) > 0, "the run moved no status word: nothing was tested"
+        assert looked and all(looked[n] <= moved[n] for n in names), (looked, moved)

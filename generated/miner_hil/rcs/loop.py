@@ -20,7 +20,8 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping
-from operator import itemgetter
+from itertools import compress
+from operator import itemgetter, ne
 from struct import Struct
 from time import perf_counter_ns as _module_clock  # the clock generated modules read
 from types import MappingProxyType, ModuleType
@@ -310,6 +311,7 @@ class Process:
             if id(clock) not in running:
                 clock.enter(self.block.buf, PAUSED, self.cycle)
         self.timed = timed
+        self._timed_pairs = tuple(timed.values())  # in the order _status_states reads them
         self.steps = tuple(module.run_cycle for module in modules.values())
         self._states_seen = None
         self._block_states = self._status_states(timed)
@@ -320,8 +322,9 @@ class Process:
         generated controller or stand-in changes its state only in a cycle that writes its
         status record (post_process writes it whenever a rule fired or status_dirty is set,
         as every state change sets one), so while those words are as the last look left
-        them, no module's state has changed since. Anything else (an operator module, a
-        test's stand-in) is looked at every cycle."""
+        them, no module's state has changed since, and after a look that left every clock at
+        its module's state, only the modules whose word moved need a look. Anything else (an
+        operator module, a test's stand-in) is looked at every cycle."""
         status = getattr(self.layout, "STATUS_OUT", {})
         if not timed or not all(
             name in status and hasattr(module, "status_dirty")
@@ -332,7 +335,11 @@ class Process:
         state_at = Struct(struct_format(STATUS_FIELDS[: names.index("state")])).size
         if state_at % 8:  # (a layout whose state does not begin a word: look every cycle)
             return None
-        return itemgetter(*((status[name].offset + state_at) >> 3 for name in timed))
+        indices = [(status[name].offset + state_at) >> 3 for name in timed]
+        if len(indices) == 1:  # (itemgetter of one index gives a word, not a tuple)
+            index = indices[0]
+            return lambda words: (words[index],)
+        return itemgetter(*indices)
 
     # ------------------------------------------------------------ running
 
@@ -357,10 +364,14 @@ class Process:
             io()
         states = self._block_states
         seen = None if states is None else states(self.words)
-        if seen is None or seen != self._states_seen:
+        last = self._states_seen
+        if seen is None or seen != last:
             buf, cycle, settled = self.block.buf, self.cycle, True
-            for clock, module in self.timed.values():  # StateClock.tick inlined: a call per
-                state = module.state  # module per cycle where the state seldom changes
+            pairs: Iterable[tuple[StateClock, Any]] = self._timed_pairs
+            if seen is not None and last is not None:  # every clock was at its module's state:
+                pairs = compress(pairs, map(ne, seen, last))  # look at those whose word moved
+            for clock, module in pairs:  # StateClock.tick inlined: a call per module per
+                state = module.state  # cycle where the state seldom changes
                 if state != clock.state:
                     clock.enter(buf, state, cycle)
                     settled = settled and clock.state == state  # (not PAUSED: a code it has)
