@@ -365,11 +365,8 @@ def test_a_step_request_arrives_after_the_records_sent_before_it(miner: ModuleTy
             process.steps.clear()
             seen.append(record.read(process_block.buf)["command_num"])
     assert seen == list(range(1, 301))
-    first = [STEP_FIRST.unpack_from(request, 0)[1] for request in taken]
+    first = [zt.STEP.unpack_from(request, 0)[1] for request in taken]  # b"s", first, ...
     assert first == [names.index("pc2") + 1] * 300, "pc2's own request, once a message"
-
-
-STEP_FIRST = __import__("struct").Struct("<cH")  # a step request's b"s" and first module
 
 
 def test_a_process_waiting_for_its_step_is_not_woken_by_pushes_and_applies_them_with_it(

@@ -195,10 +195,11 @@ class ZenohTransport:
         self._declared: list[Any] = []
         self._cut = len(self.prefix) + 1
         self._steps = f"{STEP_KEY}/"
-        names = list(layout.PROCESSES)
-        self._me = names.index(process) if process in names else None
+        # each process's index in the layout: its entry in a cycle's step message
+        self._index = {name: i for i, name in enumerate(layout.PROCESSES)}
+        self._me = self._index.get(process) if process is not None else None
         # a request's size: the segment, then the heartbeat each process must have reached
-        self._request_size = STEP.size + 8 * len(names)
+        self._request_size = STEP.size + 8 * len(self._index)
         self._pushes = f"{PUSH_KEY}/"
         self._heard = f"{HEARD_KEY}/"
         # Messages go through publishers declared once, not express: Zenoh batches only
@@ -437,7 +438,7 @@ class ZenohTransport:
     def send_steps(self, requests: Mapping[str, bytes]) -> None:
         """A lockstep cycle's requests (`step_request`) to the processes named, as one
         message (after this node's own records: same link, in order)."""
-        index = {name: i for i, name in enumerate(self.mirror.layout.PROCESSES)}
+        index = self._index
         payload = b"".join(
             STEP_ENTRY.pack(index[name], len(request)) + request
             for name, request in requests.items()

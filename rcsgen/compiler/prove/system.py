@@ -279,6 +279,7 @@ def _late_order(
     later, and so does every leaf below it: W704 of the supervisor, located where the
     process lists the subordinate (the order to change)."""
     found = []
+    listed = {p.name: p.module_spans for p in system.processes}
     for c in system.controllers:
         if c.is_operator or c.name not in place:
             continue
@@ -289,7 +290,6 @@ def _late_order(
             if place[s.name][0] != process:
                 continue
             sk = skeletons[c.name]
-            listed = next(p for p in system.processes if p.name == process).module_spans
             found.append(
                 Finding(
                     "W704",
@@ -297,7 +297,8 @@ def _late_order(
                     "HALT",
                     None,
                     None,
-                    listed.get(s.name) or sk.spans.get("HALT", next(iter(sk.spans.values()))),
+                    listed[process].get(s.name)
+                    or sk.spans.get("HALT", next(iter(sk.spans.values()))),
                     f"HALT reach is violated: {s.name} runs before its supervisor {c.name} in "
                     f"process {process}'s order (system.yaml), so it reads {c.name}'s HALT a "
                     "cycle later than the process split allows, and so does every leaf below it",
