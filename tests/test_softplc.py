@@ -206,6 +206,42 @@ def test_an_unplugged_device_refuses_connections_and_comes_back_on_its_port(
     assert seen == [True, False, True]
 
 
+@pytest.mark.parametrize("device", ["tank", "pumps"])
+def test_a_bank_holds_its_starting_values_before_it_listens(
+    layout: ModuleType, device: str
+) -> None:
+    """A device plugged in again takes the plant's values before its server listens: a
+    client's write made as soon as the port opens is never overwritten by them (a bench's
+    replug, then a freeze and a client's write, read back 0 in CI when they came after)."""
+    declared = layout.IO_DEVICES[device]
+    if declared.protocol == "opcua":
+        pytest.importorskip("asyncua")
+    values = [(p, True if p.value_type == "bool" else 3) for p in declared.points]
+
+    async def run() -> dict[str, object]:
+        bank = softplc._bank(declared, "127.0.0.1", 0)
+        seen: dict[str, object] = {}
+        server: Any = bank.server
+        listen = "serve_forever" if isinstance(bank, softplc.ModbusBank) else "start"
+        original = getattr(server, listen)
+
+        async def listening_now(*args: Any, **kwargs: Any) -> Any:
+            for point, _ in values:
+                seen[point.field] = await bank.get(point)
+            return await original(*args, **kwargs)
+
+        setattr(server, listen, listening_now)
+        try:
+            await bank.start(values)
+            await until(None, lambda: len(seen) == len(values), "listening")
+        finally:
+            await bank.stop()
+        return seen
+
+    seen = asyncio.run(run())
+    assert seen == {p.field: v for p, v in values}
+
+
 def test_validate_connect_names_a_device_that_does_not_answer_and_a_point_it_lacks(
     rig: Path, system: IRSystem, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -126,7 +126,9 @@ class ModbusBank:
         self.unit, self.asked = device.unit, port
         self.serving: asyncio.Task[Any] | None = None
 
-    async def start(self) -> int:
+    async def start(self, values: list[tuple[Any, object]]) -> int:
+        for point, value in values:  # on the tables before any client can connect
+            await self.put(point, value)
         self.serving = asyncio.create_task(self.server.serve_forever())
         for _ in range(500):  # the port it listens on (the one the system chose for port 0)
             sockets = getattr(getattr(self.server, "transport", None), "sockets", None)
@@ -167,7 +169,7 @@ class OpcUaBank:
         self.server = Server()
         self.nodes: dict[str, Any] = {}
 
-    async def start(self) -> int:
+    async def start(self, values: list[tuple[Any, object]]) -> int:
         from asyncua import ua
 
         server = self.server
@@ -191,6 +193,8 @@ class OpcUaBank:
             )
             await node.set_writable()
             self.nodes[point.field] = node
+        for point, value in values:  # on the nodes before any client can connect
+            await self.put(point, value)
         await server.start()
         listening: Any = server.bserver._server if server.bserver else None
         sockets = listening.sockets if listening is not None else ()
@@ -225,10 +229,10 @@ class Served:
 
     async def start(self, plant: Plant) -> None:
         assert self.bank is not None
-        self.port = await self.bank.start()
-        # The plant's values on every point, as a PLC has them before any poll.
-        for point in self.device.points:
-            await self.bank.put(point, plant.read(point.field))
+        # The plant's values on every point, as a PLC has them before any poll: put there
+        # before the server listens, so that no client's write is overwritten by them.
+        values = [(point, plant.read(point.field)) for point in self.device.points]
+        self.port = await self.bank.start(values)
 
     async def control(self, wanted: str, plant: Plant) -> None:
         """`unplug`: the server stopped (its connections closed, new ones refused); `replug`:
