@@ -117,7 +117,7 @@ def test_a_role_is_granted_to_its_holders_and_refused_to_everyone_else(
     groups = sorted({ctl.group_name(g) for g in {os.getgid(), os.getegid(), *os.getgroups()}})
     assert MINE in groups
     assert str(refused.value) == (
-        f"refused: role stranger of fleet is held by user(s) {NOBODY_USER} and members of "
+        f"refused: role stranger of fleet is held by user {NOBODY_USER} and members of "
         f"{NOBODY_GROUP}; you are {me} (groups {', '.join(groups)})"
     )
 
@@ -136,7 +136,7 @@ def test_a_user_named_in_a_role_holds_it_whatever_their_groups(tmp_path: Path) -
 
     assert ctl.holder_problem(Layout, "named") == ""  # type: ignore[arg-type]
     assert ctl.holder_problem(Layout, "other").startswith(  # type: ignore[arg-type]
-        f"role other of tiny is held by user(s) {NOBODY_USER}; you are {me} (groups "
+        f"role other of tiny is held by user {NOBODY_USER}; you are {me} (groups "
     )
 
 
@@ -150,7 +150,7 @@ def test_ctl_the_launcher_and_the_monitor_refuse_a_role_to_a_non_holder_in_one_l
     refused = python_m(fleet, "ctl", "--shm", segment, "--role", "stranger", "status")
     assert refused.returncode == 1
     (line,) = refused.stderr.splitlines()
-    assert line.startswith("ctl: error: refused: role stranger of fleet is held by user(s) ")
+    assert line.startswith("ctl: error: refused: role stranger of fleet is held by user ")
     held = python_m(fleet, "ctl", "--shm", segment, "--role", "holder", "status")
     assert held.returncode == 1
     assert held.stderr.splitlines() == [

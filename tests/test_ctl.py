@@ -236,7 +236,7 @@ def test_stop_step_and_run_a_module(running: Running) -> None:
     assert running.module("arm")["run"] == "STOP"
     stepped = running.ctl("step", "arm", "3")
     assert stepped.returncode == 0, stepped.stderr
-    assert stepped.stdout.startswith("arm: stepped 3 cycle(s), SINGLE")
+    assert stepped.stdout.startswith("arm: stepped 3 cycles, SINGLE")
     arm = running.module("arm")
     assert (arm["run"], arm["step"]) == ("RUN", "SINGLE")
     cycles = arm["cycles"]

@@ -68,7 +68,7 @@ def test_the_client_reads_the_results_in_the_cycle_the_done_arrives(desk):
         ({**GOOD, "verdict": "REWROK"}, "did you mean REWORK?"),
         ({**GOOD, "ok": "yes"}, "result ok is 'yes', not true or false"),
         ({**GOOD, "note": "much too long"}, "more than the 8 it holds"),
-        ({k: v for k, v in GOOD.items() if k != "gap"}, "needs result(s) gap with DONE"),
+        ({k: v for k, v in GOOD.items() if k != "gap"}, "needs result gap with DONE"),
         ({**GOOD, "gapp": "1"}, "did you mean 'gap'"),
     ],
 )

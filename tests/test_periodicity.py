@@ -57,8 +57,8 @@ def test_late_wake_ups_warn_at_most_once_every_ten_seconds_with_their_count() ->
     late = [6e-3] * 1200  # the schedule keeps its boundaries: a wake-up every 10 ms, 12 s
     periodicity, lines = paced(late)
     assert len(lines) == 2, lines
-    assert lines[0].startswith("p1: 1 wake-up(s) more than 5 ms late (the last 6.0 ms")
-    assert lines[1].startswith("p1: 1000 wake-up(s)")  # the 10 s after the first line
+    assert lines[0].startswith("p1: 1 wake-up more than 5 ms late (the last 6.0 ms")
+    assert lines[1].startswith("p1: 1000 wake-ups more than")  # the 10 s after the first line
     assert periodicity.warnings == 2
 
 
@@ -107,7 +107,7 @@ def test_the_control_record_fields_read_back_as_the_figures_and_the_line() -> No
     }
     assert contract.periodicity_line("p1", figures) == (
         "p1: period error mean 40 µs, max 3900 µs; wake-up lateness p99 4000 µs, max "
-        "4000 µs over 100 wake-ups (period 10 ms), 0 lateness warning(s)"
+        "4000 µs over 100 wake-ups (period 10 ms), 0 lateness warnings"
     )
     assert contract.periodicity(dict.fromkeys(values, 0)) is None  # not paced
 
@@ -137,7 +137,7 @@ def test_the_status_section_names_each_process_its_figures_and_slowest_module() 
     }
     assert periodicity_lines(snapshot) == [
         "periodicity p1: period error mean 40 µs, max 3900 µs; wake-up lateness p99 4000 µs, "
-        "max 4000 µs over 100 wake-ups (period 10 ms), 2 lateness warning(s); cycle last "
+        "max 4000 µs over 100 wake-ups (period 10 ms), 2 lateness warnings; cycle last "
         "50.5 µs, max 80 µs; slowest module b (max 35.5 µs)",
         "periodicity p2: periodicity: no paced wake-up; cycle last 5 µs, max 9 µs; slowest "
         "module c (max 4 µs)",

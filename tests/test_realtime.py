@@ -75,6 +75,12 @@ def run_pl(tmp_path: Path, settings: str, segment: str) -> subprocess.CompletedP
     )
 
 
+def allowed_cpus() -> str:
+    """The CPUs this process may use as the refusal names them: `CPU 0`, `CPUs 0, 1`."""
+    cpus = sorted(os.sched_getaffinity(0))
+    return ("CPU " if len(cpus) == 1 else "CPUs ") + ", ".join(str(c) for c in cpus)
+
+
 def test_a_refused_setting_is_one_line_and_the_process_runs_without_it(
     tmp_path: Path, segment: str
 ) -> None:
@@ -82,8 +88,8 @@ def test_a_refused_setting_is_one_line_and_the_process_runs_without_it(
     assert done.returncode == 0, done.stderr
     refused = [line for line in done.stderr.splitlines() if "realtime" in line]
     assert refused == [
-        f"pl: realtime cpus refused: CPU(s) [4096] not available here (this process may use "
-        f"{sorted(os.sched_getaffinity(0))}); running without it"
+        f"pl: realtime cpus refused: CPU 4096 not available here (this process may use "
+        f"{allowed_cpus()}); running without it"
     ]
     assert "pl: 3 cycles" in done.stdout
     assert "pl: period error mean" in done.stdout and "over 3 wake-ups" in done.stdout
@@ -95,8 +101,8 @@ def test_a_refused_required_setting_stops_the_process_before_its_first_cycle(
     done = run_pl(tmp_path, "{cpus: [4096], required: true}", segment)
     assert done.returncode == 1
     assert done.stderr.strip().splitlines() == [
-        f"pl: realtime cpus refused: CPU(s) [4096] not available here (this process may use "
-        f"{sorted(os.sched_getaffinity(0))}) (realtime.required: not started)"
+        f"pl: realtime cpus refused: CPU 4096 not available here (this process may use "
+        f"{allowed_cpus()}) (realtime.required: not started)"
     ]
     assert "cycles" not in done.stdout
 

@@ -13,6 +13,9 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
+# counts said with their noun's number: one home, in the contract the runtime shares
+from ..runtime.contract import counted as counted
+from ..runtime.contract import listed as listed
 from .codes import Severity, severity_of
 
 
@@ -186,23 +189,6 @@ def did_you_mean(name: str, candidates: Iterable[str]) -> str:
             n for n in names if len(name) > 1 and _edit_distance(name.lower(), n.lower()) == 1
         ][:1]
     return f"did you mean `{close[0]}`?" if close else ""
-
-
-def _noun(count: int, noun: str, plural: str) -> str:
-    return noun if count == 1 else plural or noun + "s"
-
-
-def counted(count: int, noun: str, plural: str = "") -> str:
-    """A count and its noun, singular or plural by the count: `1 argument`, `2 arguments`
-    (`plural` where adding an s is wrong)."""
-    return f"{count} {_noun(count, noun, plural)}"
-
-
-def listed(noun: str, names: Iterable[str], plural: str = "") -> str:
-    """A noun and the names it counts, singular or plural by them: `parameter x`,
-    `parameters x, y`."""
-    names = list(names)
-    return f"{_noun(len(names), noun, plural)} {', '.join(names)}"
 
 
 def known_names_hint(kind: str, candidates: Iterable[str], name: str = "") -> str:

@@ -14,7 +14,7 @@ import gc
 import os
 from collections.abc import Callable, Mapping
 
-from .contract import shared
+from .contract import listed, shared
 
 MCL_CURRENT, MCL_FUTURE = 1, 2  # mlockall(2)
 
@@ -56,8 +56,8 @@ def _cpus(cpus: object) -> str:
     allowed = os.sched_getaffinity(0)
     if not wanted <= allowed:
         return (
-            f"CPU(s) {sorted(wanted - allowed)} not available here "
-            f"(this process may use {sorted(allowed)})"
+            f"{listed('CPU', sorted(wanted - allowed))} not available here "
+            f"(this process may use {listed('CPU', sorted(allowed))})"
         )
     try:
         os.sched_setaffinity(0, wanted)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numbers
 import sys
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from math import isfinite
 from struct import Struct
 from types import CodeType, ModuleType
@@ -152,6 +152,23 @@ def field_codes(fmt: str) -> list[str]:
             codes += [char] * int(count or 1)
         count = ""
     return codes
+
+
+def _noun(count: int, noun: str, plural: str) -> str:
+    return noun if count == 1 else plural or noun + "s"
+
+
+def counted(count: int, noun: str, plural: str = "") -> str:
+    """A count and its noun, singular or plural by the count: `1 argument`, `2 arguments`
+    (`plural` where adding an s is wrong)."""
+    return f"{count} {_noun(count, noun, plural)}"
+
+
+def listed(noun: str, names: Iterable[object], plural: str = "") -> str:
+    """A noun and the names it counts, singular or plural by them: `parameter x`,
+    `parameters x, y`."""
+    shown = [str(name) for name in names]
+    return f"{_noun(len(shown), noun, plural)} {', '.join(shown)}"
 
 
 def text_problem(value: object, size: int) -> str:
@@ -343,7 +360,7 @@ def periodicity_line(name: str, figures: dict[str, Any] | None) -> str:
         f"{figures['period_error_max_us']:g} µs; wake-up lateness p99 "
         f"{figures['lateness_p99_us']:g} µs, max {figures['lateness_max_us']:g} µs over "
         f"{figures['wakeups']} wake-ups (period {figures['period_ms']:g} ms), "
-        f"{figures['lateness_warnings']} lateness warning(s)"
+        f"{counted(int(figures['lateness_warnings']), 'lateness warning')}"
     )
 
 
@@ -514,7 +531,7 @@ class Record(NamedTuple):
         not at all: ValueError when it does not fit."""
         unknown = set(values) - set(self.fields)
         if unknown:
-            raise KeyError(f"no field(s) {sorted(unknown)} in a buffer of {self.fields}")
+            raise KeyError(f"no {listed('field', sorted(unknown))} in a buffer of {self.fields}")
         texts = {k: v for k, v in values.items() if isinstance(v, str)}
         if texts:
             codes = self.codes()

@@ -39,6 +39,7 @@ from .contract import (
     STARTING,
     STATUS_FIELDS,
     STOPPED,
+    counted,
     field_names,
     periodicity,
     periodicity_line,
@@ -770,7 +771,7 @@ class Periodicity:
             self.unwarned += 1
             if now - self.warned_at >= self.every and self.warn is not None:
                 self.warn(
-                    f"{self.name}: {self.unwarned} wake-up(s) more than "
+                    f"{self.name}: {counted(self.unwarned, 'wake-up')} more than "
                     f"{self.warn_after * 1e3:g} ms late (the last {late * 1e3:.1f} ms, "
                     f"period {self.period * 1e3:g} ms): loaded machine, or the period too "
                     "short"

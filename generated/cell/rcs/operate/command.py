@@ -35,6 +35,7 @@ from ..contract import (
     STATUS_NAMES,
     StaleRead,
     enum_code,
+    listed,
     range_problem,
     shared,
 )
@@ -210,7 +211,7 @@ def answer_results(
     missing = [name for name in declared if name not in given]
     if missing:
         form = " ".join(f"{name}=..." for name in declared)
-        raise ValueError(f"{where} needs result(s) {', '.join(missing)} with DONE ({form})")
+        raise ValueError(f"{where} needs {listed('result', missing)} with DONE ({form})")
     slots: dict[str, object] = {}
     channel = layout.OPERATORS[operator][0]
     for name, (code, names, low, high) in declared.items():
@@ -323,7 +324,7 @@ def _all_given(where: str, params: Mapping[str, Any], given: Mapping[str, object
     missing = [name for name in params if name not in given]
     if missing:
         form = " ".join(f"{name}=..." for name in params)
-        raise ValueError(f"{where} needs parameter(s) {', '.join(missing)} ({where} {form})")
+        raise ValueError(f"{where} needs {listed('parameter', missing)} ({where} {form})")
 
 
 def write_command(layout: ModuleType, buf: memoryview, command: Command, tries: int = 20) -> int:

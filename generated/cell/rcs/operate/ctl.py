@@ -45,8 +45,10 @@ from ..contract import (
     STATUS_NAMES,
     StaleRead,
     cause_text,
+    counted,
     enum_name,
     field_names,
+    listed,
     network_line,
     periodicity,
     periodicity_line,
@@ -273,7 +275,7 @@ def holder_problem(layout: ModuleType, role: str) -> str:
     held = " and ".join(
         part
         for part in (
-            f"user(s) {', '.join(users)}" if users else "",
+            listed("user", users) if users else "",
             f"members of {', '.join(groups)}" if groups else "",
         )
         if part
@@ -1252,7 +1254,7 @@ def _verb_step(console: Console, args: argparse.Namespace, command: Command | No
     console.step(args.module, args.count, args.timeout)
     row = console.modules()[args.module]
     print(
-        f"{args.module}: stepped {args.count} cycle(s), SINGLE: state {row.get('state')}, "
+        f"{args.module}: stepped {counted(args.count, 'cycle')}, SINGLE: state {row.get('state')}, "
         f"rule {row.get('rule') or '-'}; `run {args.module}` goes back to AUTO"
     )
     return 0

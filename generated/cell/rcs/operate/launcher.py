@@ -39,6 +39,7 @@ from ..contract import (
     StaleRead,
     enum_code,
     enum_name,
+    listed,
     network_line,
     periodicity,
     periodicity_line,
@@ -1325,7 +1326,7 @@ def _check_run(system: System, args: argparse.Namespace) -> None:
     args.report = [f for f in args.report.split(",") if f]
     unknown_fields = [f for f in args.report if f not in system.layout.WORLD]
     if unknown_fields:
-        raise ValueError(f"--report: no world field(s) {unknown_fields}")
+        raise ValueError(f"--report: no world {listed('field', unknown_fields)}")
     if args.send is not None:
         args.send = parse_send(system.layout, args.send)
         if args.process is not None or args.lockstep:
