@@ -2,7 +2,8 @@
 
 Exit codes follow Click: 0 clean, 1 the specs, scenarios or output have a problem (or a run
 did not end as expected), 2 misuse, 3 a bug in rcsgen (one line; RCSGEN_TRACEBACK=1 shows
-the traceback), 128 + N a run stopped by signal N. A command ends early by raising `Exit`,
+the traceback), 128 + N a run stopped by signal N (143: any command stopped by SIGTERM,
+which cleans up as Ctrl-C does). A command ends early by raising `Exit`,
 the one way out with a code (`error` makes the usual `error: ...` one). Diagnostics go to
 stderr as `file:line:col: error[CODE]: message`, sorted by position, after the user's
 selection (`--select`, `--ignore`, `[tool.rcsgen]`: see tools/report.py and
@@ -15,6 +16,7 @@ from __future__ import annotations
 import functools
 import os
 import shutil
+import signal
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -67,16 +69,30 @@ def error(message: str, code: int = 1) -> Exit:
     return Exit(code, f"error: {message}")
 
 
+class Terminated(SystemExit):
+    """SIGTERM, raised where the command was: its `finally` blocks and undo steps run (a
+    build's scratch removed, a half-applied write taken back), exit 143."""
+
+
+def _terminated(signum: int, _frame: object) -> NoReturn:
+    os.write(2, f"stopped by {signal.Signals(signum).name}\n".encode())
+    raise Terminated(128 + signum)
+
+
 class Commands(click.Group):
-    """A click group whose commands end by raising `Exit`."""
+    """A click group whose commands end by raising `Exit`; SIGTERM ends one as Ctrl-C
+    does, cleaning up (a command that runs a system installs its own handler)."""
 
     def invoke(self, ctx: click.Context) -> Any:
+        before = signal.signal(signal.SIGTERM, _terminated)
         try:
             return super().invoke(ctx)
         except Exit as end:
             if end.line:
                 click.echo(end.line, err=True)
             ctx.exit(end.code)
+        finally:
+            signal.signal(signal.SIGTERM, before)
 
 
 @functools.cache

@@ -343,6 +343,73 @@ def test_a_failed_write_is_undone(system: Path, monkeypatch: pytest.MonkeyPatch)
     assert tree(out) == before
 
 
+def changed_build(system: Path) -> dict[str, tuple[int, bytes | None]]:
+    """A build of the tiny system in out/, then its spec changed: out/ as it is."""
+    out = built(system)
+    (system / "top.yaml").write_text((system / "top.yaml").read_text().replace("2.5", "3.5"))
+    (system / "sub.yaml").write_text(
+        (system / "sub.yaml").read_text().replace("Sub controller", "Sub controller, renamed")
+    )
+    return tree(out)
+
+
+@pytest.mark.parametrize("stop", ["SIGTERM", "Ctrl-C"])
+def test_a_build_stopped_while_writing_leaves_the_output_as_it_was(
+    system: Path, monkeypatch: pytest.MonkeyPatch, stop: str
+) -> None:
+    """SIGTERM (a supervisor or `timeout` stopping the build) or Ctrl-C at the second rename
+    of a rebuild: the files renamed into place are taken back, no temporary file stays,
+    and SIGTERM exits 143 saying so (before, the default action killed it half-written)."""
+    before = changed_build(system)
+    real = os.replace
+    calls = []
+
+    def stopping(src: object, dst: object) -> None:
+        calls.append(dst)
+        real(src, dst)  # type: ignore[arg-type]
+        if len(calls) == 2:
+            if stop == "Ctrl-C":
+                raise KeyboardInterrupt
+            os.kill(os.getpid(), signal.SIGTERM)  # handled at the next line this runs
+
+    monkeypatch.setattr(os, "replace", stopping)
+    result = rcsgen("build", "sys", "-o", "out")
+    monkeypatch.setattr(os, "replace", real)
+    assert len(calls) == 2
+    assert tree(system.parent / "out") == before
+    if stop == "SIGTERM":
+        assert result.exit_code == 143
+        assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handler put back
+    else:
+        assert result.exit_code == 1 and "Aborted!" in result.output
+
+
+def test_a_build_stopped_while_formatting_removes_its_scratch(
+    system: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """SIGTERM while the formatter runs over the scratch copy (in /dev/shm, in RAM): the
+    scratch directory is removed, the output left as it was, exit 143."""
+    from rcsgen.compiler.back_end import emit
+
+    before = changed_build(system)
+    real = emit.subprocess.run
+    scratches = []
+
+    def formatting(command: list[str], **kwargs: object) -> object:
+        scratches.append(Path(str(kwargs["cwd"])))
+        done = real(command, **kwargs)  # type: ignore[call-overload]
+        os.kill(os.getpid(), signal.SIGTERM)
+        return done
+
+    monkeypatch.setattr(emit.subprocess, "run", formatting)
+    result = rcsgen("build", "sys", "-o", "out")
+    monkeypatch.setattr(emit.subprocess, "run", real)
+    assert result.exit_code == 143
+    assert len(scratches) == 1 and scratches[0].name.startswith("rcsgen-fmt-")
+    assert not scratches[0].exists()
+    assert tree(system.parent / "out") == before
+
+
 def test_read_only_output_directory_is_e306(system: Path) -> None:
     out = built(system)
     (system / "top.yaml").write_text((system / "top.yaml").read_text().replace("2.5", "3.5"))

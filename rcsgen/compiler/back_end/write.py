@@ -16,7 +16,6 @@ import difflib
 import errno
 import os
 import stat
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -280,7 +279,7 @@ def _check_writable(
 
 
 def _file_mode() -> int:
-    """The mode a plain new file gets under the current umask (mkstemp would give 0600)."""
+    """The mode a plain new file gets under the current umask (os.open gives 0600 here)."""
     umask = os.umask(0o022)
     os.umask(umask)
     return 0o666 & ~umask
@@ -296,8 +295,11 @@ class _Undo:
     aside: list[tuple[Path, Path]] = field(default_factory=list)  # (stale file, moved to)
 
     def rollback(self, old: dict[Path, bytes]) -> None:
+        # Each step is listed before it is taken, so that an interruption between the two
+        # (Ctrl-C, SIGTERM) is undone too: undoing a step not taken does nothing.
         for original, moved in reversed(self.aside):
-            os.replace(moved, original)
+            if os.path.lexists(moved):
+                os.replace(moved, original)
         for path in reversed(self.placed):
             if path in old:
                 path.write_bytes(old[path])
@@ -326,24 +328,25 @@ def apply(plan: Plan) -> None:
             if path.parent not in there:
                 missing = [p for p in [path.parent, *path.parent.parents] if not p.exists()]
                 for directory in reversed(missing):
-                    directory.mkdir()
                     undo.dirs.append(directory)
+                    directory.mkdir()
                 there.add(path.parent)
-            fd, tmp = tempfile.mkstemp(prefix=".rcsgen-", suffix=".tmp", dir=path.parent)
-            undo.temps.append(Path(tmp))
+            tmp = path.with_name(f".rcsgen-{path.name}.{os.getpid()}.tmp")
+            undo.temps.append(tmp)
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
             with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
                 handle.write(plan.write[path])
             os.chmod(tmp, mode)
         for target, written in zip(plan.write, list(undo.temps), strict=True):
             current = target
+            undo.placed.append(target)
             os.replace(written, target)
             undo.temps.remove(written)
-            undo.placed.append(target)
         for path in plan.delete:
             current = path
             moved = path.with_name(f".rcsgen-{path.name}.deleted")
-            os.replace(path, moved)
             undo.aside.append((path, moved))
+            os.replace(path, moved)
     except OSError as exc:
         undo.rollback(plan.old)
         where = current or Path(".")
@@ -358,6 +361,9 @@ def apply(plan: Plan) -> None:
             "make the output directory writable (or free space), or build elsewhere with -o",
         )
         raise SpecError(diags) from None
+    except BaseException:  # interrupted (Ctrl-C, SIGTERM): nothing half-written stays
+        undo.rollback(plan.old)
+        raise
     for _, moved in undo.aside:
         moved.unlink(missing_ok=True)
 
