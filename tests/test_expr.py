@@ -487,6 +487,7 @@ def test_conjunct_is_one_operand_of_and(tree: Expr, values: dict[Key, Any], gate
         "-world.wi * li",
         "not (world.wb and lb)",
         "(world.wb or lb) and pb",
+        "world.wb or (lb and pb) or not pb",
         "world.wb == (lb == pb)",
         "(li < pi) == world.wb",
         "li < pi <= world.wi",
@@ -496,10 +497,27 @@ def test_conjunct_is_one_operand_of_and(tree: Expr, values: dict[Key, Any], gate
     ],
 )
 def test_canonical_source_prints_as_written(source: str) -> None:
-    """Text already in the printer's form comes back unchanged (only needed parentheses)."""
+    """Text already in the printer's form comes back unchanged (only needed parentheses,
+    and those around an `and` inside an `or`)."""
     tree = compile_expr(source, SPAN, scope(), Diagnostics())
     assert tree is not None
     assert to_python(tree, spec_name) == source
+
+
+@pytest.mark.parametrize(
+    ("source", "printed"),
+    [
+        ("world.wb and lb or pb", "(world.wb and lb) or pb"),
+        ("world.wb or lb and not pb", "world.wb or (lb and not pb)"),
+        ("not world.wb or li < 2 or pb", "not world.wb or li < 2 or pb"),
+    ],
+)
+def test_an_and_inside_an_or_is_printed_in_parentheses(source: str, printed: str) -> None:
+    """Python binds `and` tighter than `or`; the generated code shows it rather than asking
+    a reviewer to recall it (ruff's RUF021); a `not` or a comparison needs none."""
+    tree = compile_expr(source, SPAN, scope(), Diagnostics())
+    assert tree is not None
+    assert to_python(tree, spec_name) == printed
 
 
 @pytest.mark.parametrize(

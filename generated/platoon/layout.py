@@ -171,8 +171,6 @@ from __future__ import annotations
 from struct import Struct
 
 from .rcs.contract import (
-    ANSWER,
-    ANSWER_FIELDS,
     FIRST_SEQ,
     HEADER,
     MAGIC,

@@ -771,8 +771,10 @@ class SmController:
                 self.helm_status == ERROR
                 or abs(self.world_pos_x - self.world_haven_x) > HAVEN
                 or abs(self.world_pos_y - self.world_haven_y) > HAVEN
-                or abs(self.world_pos_x - self.arg_x) < ARRIVAL
-                and abs(self.world_pos_y - self.arg_y) < ARRIVAL
+                or (
+                    abs(self.world_pos_x - self.arg_x) < ARRIVAL
+                    and abs(self.world_pos_y - self.arg_y) < ARRIVAL
+                )
             ):
                 # the helm failed, the ship left its moving haven, or it reached the waypoint's box while the OOD decides: withdraw his request; S1 then reports it
                 self.rule = 14  # SUBMERGED_TRANSIT/DEPTH_ASKED/1

@@ -81,7 +81,10 @@ class _Printer:
             return f"{left} {expr.op} {right}", level
         if isinstance(expr, BoolOp):
             level = _PRECEDENCE[expr.op]
-            return f" {expr.op} ".join(self.wrap(v, level + 1) for v in expr.values), level
+            # an `and` inside an `or` in parentheses, though Python does not need them: a
+            # reviewer should not have to recall which binds tighter
+            least = _PRECEDENCE["not"] if expr.op == "or" else level + 1
+            return f" {expr.op} ".join(self.wrap(v, least) for v in expr.values), level
         if isinstance(expr, IfExp):  # right-associative: `a if c else b if d else e`
             body, test = self.wrap(expr.body, 1), self.wrap(expr.test, 1)
             return f"{body} if {test} else {self.wrap(expr.orelse, 0)}", _PRECEDENCE["if"]
