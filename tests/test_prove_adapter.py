@@ -127,7 +127,7 @@ def test_a_guard_with_its_predicate_function_and_let_inlined(arm: Skeleton) -> N
     )
     # far() is world.pos > LIMIT, goal is twice(world.pos), twice(x) is 2.0 * x
     assert text(first.tree) == (
-        "world.pos > const.LIMIT and not -world.pos > 2.0 * world.pos or (world.pos if "
+        "(world.pos > const.LIMIT and not -world.pos > 2.0 * world.pos) or (world.pos if "
         "local.count > 1 else abs(2.0 * world.pos)) > 9.0"
     )
     assert first.reads == frozenset({("const", "LIMIT"), ("local", "count"), ("world", "pos")})
