@@ -441,9 +441,12 @@ def running_miner(*options: str) -> Running:
 def test_the_miner_walk_through_from_the_readme() -> None:
     """Start the miner with the operator at the console (`--world operator_delay=-1`), send
     sec BOX_CUT depth=1.5 as the crew (the section, the top; the shift boss below it is the
-    engineer's to override), single-step co five cycles, switch cr to simulation and
-    back as the engineer, answer the conveyor-tail request as the crew, stop it: every step a
-    command line, the system paced, each role refused what it may not do."""
+    engineer's to override), answer the conveyor-tail request as the crew, single-step co
+    five cycles, switch cr to simulation and back as the engineer, stop it: every step a
+    command line, in the README's order, the system paced, each role refused what it may not
+    do. (Stepping and simulating before the tail request, as this test once did, let a
+    loaded machine reach the sump while cr was simulated: its stand-in never asks for the
+    tail, and the real cr then waited for ever for coal that nothing hauls away.)"""
     system = running_miner()
     try:
         refused = system.ctl("send", "sec", "BOX_CUT", "depth=1.5")  # no role: monitor only
@@ -458,6 +461,27 @@ def test_the_miner_walk_through_from_the_readme() -> None:
         sent = system.ctl("--role", "crew", "send", "sec", "BOX_CUT", "depth=1.5", "--seen")
         assert sent.returncode == 0, sent.stderr
         assert sent.stdout.startswith("sent sec.BOX_CUT depth=1.5 #2")
+        # ct asks for the conveyor tail (at the first sump: seconds, a minute and more at
+        # load 18, where each paced cycle starts late); nobody but the console answers it
+        try:
+            wait_for(lambda: system.json().get("requests"), "the tail request", 180)
+        except AssertionError as error:  # say what the system did instead (a trip? a halt?)
+            raise AssertionError(f"{error}\n{system.ctl('status').stdout}") from None
+        listed = system.ctl("requests")
+        assert listed.stdout.splitlines() == [
+            "tail from ct: Put the conveyor tail over the haulage, then answer."
+        ]
+        assert "request tail from ct:" in system.ctl("status").stdout
+        assert system.module("ct")["status"] == "EXECUTING"
+        refused = system.ctl("answer", "tail")
+        assert refused.returncode == 1 and "answering tail needs respond on ct" in refused.stderr
+        answered = system.ctl("answer", "tail", "--role", "crew")
+        assert answered.returncode == 0, answered.stderr
+        assert answered.stdout.startswith("answered tail: sent oi.TAIL_IN_POSITION #")
+        wait_for(lambda: system.module("ct")["status"] == "DONE", "ct done")
+        assert system.ctl("requests").stdout == "no requests\n"
+        again = system.ctl("answer", "tail", "--role", "crew")
+        assert again.returncode == 1 and "ct is not asking for tail now" in again.stderr
         wait_for(lambda: system.module("co")["status"] == "EXECUTING", "co working")
         refused = system.ctl("step", "co", "5", "--role", "crew")
         assert refused.returncode == 1
@@ -480,27 +504,6 @@ def test_the_miner_walk_through_from_the_readme() -> None:
         wait_for(lambda: system.module("cr")["runs"] == "cr", "cr again")
         assert not system.module("gh").get("skipped_by")
         assert system.module("sec")["command"] == system.module("sb")["command"] == "BOX_CUT"
-        # ct asks for the conveyor tail (at the first sump: seconds, a minute and more at
-        # load 18, where each paced cycle starts late); nobody but the console answers it
-        try:
-            wait_for(lambda: system.json().get("requests"), "the tail request", 180)
-        except AssertionError as error:  # say what the system did instead (a trip? a halt?)
-            raise AssertionError(f"{error}\n{system.ctl('status').stdout}") from None
-        listed = system.ctl("requests")
-        assert listed.stdout.splitlines() == [
-            "tail from ct: Put the conveyor tail over the haulage, then answer."
-        ]
-        assert "request tail from ct:" in system.ctl("status").stdout
-        assert system.module("ct")["status"] == "EXECUTING"
-        refused = system.ctl("answer", "tail")
-        assert refused.returncode == 1 and "answering tail needs respond on ct" in refused.stderr
-        answered = system.ctl("answer", "tail", "--role", "crew")
-        assert answered.returncode == 0, answered.stderr
-        assert answered.stdout.startswith("answered tail: sent oi.TAIL_IN_POSITION #")
-        wait_for(lambda: system.module("ct")["status"] == "DONE", "ct done")
-        assert system.ctl("requests").stdout == "no requests\n"
-        again = system.ctl("answer", "tail", "--role", "crew")
-        assert again.returncode == 1 and "ct is not asking for tail now" in again.stderr
     finally:
         out = system.stop()
     assert "pc1: stopped" in out and "pc2: stopped" in out
