@@ -198,7 +198,7 @@ class Load:
 
     def looked(self, page: Page | None) -> bool:
         """Whether a core is free, as last seen: looked at again every CHECK calls where
-        one was, every BUSY_CHECK where none was (a look is a read of /proc/loadavg, ~7 µs:
+        one was, every BUSY_CHECK where none was (a look is a read of /proc/loadavg, 1.3-7 µs:
         a busy machine, where nobody spins, pays it a quarter as often; a ring stops
         spinning within CHECK waits of the machine getting busy)."""
         self.left -= 1
@@ -229,7 +229,7 @@ class Nudge:
     """A member's nudge to the next one as it takes the token (WAKE into the next one's
     link: it spins for the token instead of being woken by the scheduler when it comes).
     Only where `spin` > 0, only while a core is free for the spinner (`Load.looked`: a
-    read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs), and with a page only
+    read of /proc/loadavg costs 1.3-7 µs, a nudge a write of ~1 µs), and with a page only
     where the next one is not spinning already."""
 
     def __init__(
