@@ -728,6 +728,20 @@ def test_ground_truth_is_forced_only_in_simulation(miner: Miner, case: dict[str,
         mode.write(buf, simulate=True)
 
 
+def test_a_stand_ins_truth_is_forced_while_its_controller_runs_real(miner: Miner) -> None:
+    """loose_coal_true is written by mine and gas (simulators) and by cr_sim, cr's stand-in,
+    which runs only while cr is simulated: with cr real, its running writers all simulate,
+    so the force is allowed, as `scenario check` allows it (ctl once took cr's REAL flag for
+    cr_sim's and refused: "cr writing it run real")."""
+    layout, buf = miner.layout, miner.block_view()
+    assert layout.WORLD_WRITERS["loose_coal_true"] == ("mine", "gas", "cr_sim")
+    assert layout.MODE_IN["cr"].read(buf)["simulate"] is False
+    code, out, err = miner.ctl("--role", "engineer", "force", "world.loose_coal_true=0.5")
+    assert (code, err) == (0, ""), err
+    assert out.startswith("world.loose_coal_true FORCED at 0.5")
+    assert miner.ctl("--role", "engineer", "unforce", "world.loose_coal_true")[0] == 0
+
+
 @pytest.mark.parametrize("case", [c for c in SPECIAL if c.values[0]["kind"] == "force_cycle"])
 def test_force_shows_everywhere_and_unforce_releases(miner: Miner, case: dict[str, Any]) -> None:
     code, out, err = miner.ctl_process("--role", "engineer", "force", "world.path_ok=false")

@@ -544,8 +544,9 @@ class _Checker:
 
     def forcing(self, raw: LocDict, event: Event, where: Span, forced: set[str]) -> None:
         """An event's `unforce:` then `force:` (as `ctl unforce`/`ctl force`): each field
-        known (E409), a forced value of its type (E408), ground truth forced only where
-        simulators write it, and a release only of what an earlier event forced (E425)."""
+        known (E409), a forced value of its type (E408), and a release only of what an
+        earlier event forced (E425). Ground truth may be forced: only simulators and
+        stand-ins write it (E280), and in a scenario they all simulate."""
         for index, name in enumerate(raw.get("unforce") or []):
             span = self.span(raw["unforce"], index)
             if self.field(name, span, "field") is None:
@@ -566,23 +567,8 @@ class _Checker:
             if kind is None:
                 continue
             self.value(value, kind, self.span(values, name), f"forced world field `{name}`")
-            writers = [
-                c for c in self.system.controllers if name in {w.name for w in c.world_writes}
-            ]
-            real = [c.name for c in writers if not c.simulator]
-            if self.ground_truth(name) and real:
-                self.error(
-                    span,
-                    "E425",
-                    f"`{name}` is ground truth, the world itself: no operator can force it where "
-                    f"{', '.join(real)} write{'s' if len(real) == 1 else ''} it for real",
-                    "force what a sensor reports (a field its simulator writes), not the truth",
-                )
             forced.add(name)
             event.force[name] = value
-
-    def ground_truth(self, name: str) -> bool:
-        return any(f.name == name and f.ground_truth for f in self.system.world)
 
     def command(self, raw: LocDict, event: Event, run: _Run | None, where: Span) -> None:
         """A command event: module, command, every parameter of its type, supervisor."""

@@ -636,7 +636,14 @@ class Console:
         for module in dict.fromkeys(writers or self.layout.MODE_IN):
             self.access.require("override", module, what)
         if field in self.layout.GROUND_TRUTH:  # (one no module writes is the run's input)
-            real = [m for m in writers if not self.read(self.layout.MODE_IN[m]).get("simulate")]
+            # a stand-in is a simulator whenever it runs (and writes nothing while its
+            # controller runs real): only a module whose simulate flag is off is real
+            stand_ins = set(getattr(self.layout, "STAND_INS", {}).values())
+            real = [
+                m
+                for m in self.layout.WORLD_WRITERS.get(field, ())
+                if m not in stand_ins and not self.read(self.layout.MODE_IN[m]).get("simulate")
+            ]
             if real:
                 raise CtlError(
                     f"refused: {field} is ground truth (the world itself, which no operator can "
