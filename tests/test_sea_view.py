@@ -180,6 +180,12 @@ def test_figure_33_s_displays_beside_the_ice_map(system):
     drawn = re.findall(r'<line class="beam" id="beam-(\d+)" data-angle="([-\d.]+)"', page)
     assert [(int(n), float(a)) for n, a in drawn] == list(enumerate(angles))
     assert d["sonar"]["angles"] == angles and d["sonar"]["reach"] == 900.0
+    # at full range the outermost beams (±39°) end 10 px inside the 150 px display's sides,
+    # not past them (they were drawn 130 px long whatever their angle)
+    assert d["sonar"]["pixels"] == 103.3
+    ends = [float(x) for x in re.findall(r'<line class="beam" [^>]* x2="([-\d.]+)"', page)]
+    assert len(ends) == 14 and min(ends) == pytest.approx(10, abs=0.1)
+    assert max(ends) == pytest.approx(140, abs=0.1)
     for n, ranges in enumerate(d["sonar"]["ranges"]):
         assert ranges == trace.world[f"sonar_{n:02d}"]
     assert any(r < 900.0 for ranges in d["sonar"]["ranges"] for r in ranges)  # ice seen
@@ -234,8 +240,9 @@ def test_the_view_in_a_browser_shows_the_ship_at_a_cycle_and_plays(tmp_path, sys
     y = 10 + 120 * depth / (deepest * 1.1)
     assert attribute(dom, "depth-ship", "transform") == f"translate(0 {y:.1f})"
     ice = 0
+    full = (75 - 10) / math.sin(math.radians(39.0))  # the ±39° beams kept inside the display
     for n, angle in enumerate(beam_angles()):  # each beam out to its range, at its angle
-        reach = 130 * trace.world[f"sonar_{n:02d}"][i] / 900.0
+        reach = full * trace.world[f"sonar_{n:02d}"][i] / 900.0
         x2 = 75 + reach * math.sin(math.radians(angle))
         y2 = 140 - reach * math.cos(math.radians(angle))
         assert float(attribute(dom, f"beam-{n}", "x2")) == pytest.approx(x2, abs=0.06)
