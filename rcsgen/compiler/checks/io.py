@@ -427,8 +427,7 @@ def _check_addresses(device: IoDevice, points: list[Point], diags: Diagnostics) 
 def _address(device: IoDevice, protocol: str, diags: Diagnostics) -> tuple[str, int]:
     text = str(device.address.value)
     found = (_OPC_URL if protocol == OPCUA else _HOST_PORT).match(text)
-    port = int(found["port"]) if found else 0
-    if found is None or not 0 < port < 65536:
+    if found is None or not 0 < int(found["port"]) < 65536:
         diags.error(
             device.address.span,
             "E456",
@@ -436,7 +435,7 @@ def _address(device: IoDevice, protocol: str, diags: Diagnostics) -> tuple[str, 
             "opc.tcp://HOST:PORT[/PATH]" if protocol == OPCUA else "HOST:PORT, e.g. 127.0.0.1:502",
         )
         return "", 0
-    return found["host"].strip("[]"), port
+    return found["host"].strip("[]"), int(found["port"])
 
 
 def _process(
