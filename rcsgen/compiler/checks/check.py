@@ -568,8 +568,8 @@ def _spelt(value: object) -> str:
 def _check_numbers(
     system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
 ) -> None:
-    """Every integer constant and initial value fits in 64 bits (E110); an int given for a
-    float fits in a float."""
+    """Every integer constant, initial or safe value and task result's bound fits in 64 bits
+    (E110); an int given for a float fits in a float."""
     values: list[tuple[Type | None, object, Span]] = [  # None: a constant, of any type
         (f.type, f.initial, f.initial_span or f.span) for f in system.world.values()
     ]
@@ -579,6 +579,13 @@ def _check_numbers(
     for spec in controllers:
         values += [(v.type, v.initial, v.initial_span or v.span) for v in spec.locals.values()]
         values += [(None, c.value, c.span) for c in spec.constants.values()]
+        values += [  # a task result's range
+            (r.type, bound.value, bound.span)
+            for command in spec.commands.values()
+            for r in command.results.values()
+            for bound in (r.low, r.high)
+            if bound is not None
+        ]
     for kind, value, span in values:
         problem = expr.int_range_problem(value) if kind in (INT, None) else ""
         if not problem and kind == FLOAT and isinstance(value, int):
