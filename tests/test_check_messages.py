@@ -318,3 +318,25 @@ def test_each_integer_value_out_of_range_is_found_beside_a_specs_constants(
     assert {(code, hint) for code, _, hint in found} == {
         ("E110", "use a smaller number, or a float if the value is not a count")
     }
+
+
+@pytest.mark.parametrize(
+    ("edit", "name"),
+    [
+        (("reads: [level]", "reads: [level, pressure]"), "pressure"),
+        (("- set: {world.pump_on: true}", "- set: {world.flow: true}"), "flow"),
+    ],
+    ids=["reads", "set"],
+)
+def test_an_undeclared_world_field_with_no_near_name_lists_the_world_fields(
+    tmp_path, monkeypatch, edit, name: str
+) -> None:
+    """E104's hint, in a controller's `reads:` and at a `set:`: the close name when there
+    is one, else every world field declared."""
+    assert said(tmp_path, monkeypatch, SYSTEM, TANK.replace(*edit, 1)) == [
+        (
+            "E104",
+            f"undeclared world field `{name}`",
+            "declared world fields: `level`, `mode`, `pump_on`",
+        )
+    ]

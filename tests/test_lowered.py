@@ -234,3 +234,7 @@ def test_a_rules_time_is_shown_as_written_and_in_cycles_one_cycle_singular(
         "for: 1 cycle = 1 cycle, after: 0.3 s = 3 cycles",
     ]
     assert go.states[0].rules[0].timing == ""
+    assert [r.guard_operand for r in go.states[1].rules] == [  # (cycles in the state: ticks)
+        "self.dev_status == ERROR and self.ticks >= 1",
+        "self.held_go_s1_2 > 1 and self.ticks >= 3",
+    ]
