@@ -724,12 +724,12 @@ class _ControllerChecker:
         by_name: dict[str, ControllerSpec],
         system: SystemSpec,
         diags: Diagnostics,
-        contracts: hook_checks.HookContracts | None = None,
-        periods: Mapping[str, float] | None = None,
+        contracts: hook_checks.HookContracts,
+        periods: Mapping[str, float],
     ):
         self.spec, self.by_name, self.system, self.diags = spec, by_name, system, diags
-        self.periods = process_periods(system) if periods is None else periods
-        self.contracts = contracts or {}  # hook -> its parameters' annotated types
+        self.periods = periods  # each process's cycle period (process_periods)
+        self.contracts = contracts  # hook -> its parameters' annotated types
         self.checked_calls: set[str] = set()  # hooks whose arguments were compared
         self.subs = [s.value for s in spec.subordinates]
         self.predicate_trees: dict[str, expr.Expr] = {}  # for folding guards (set by check)
