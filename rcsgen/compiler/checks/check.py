@@ -579,13 +579,7 @@ def _check_numbers(
     for spec in controllers:
         values += [(v.type, v.initial, v.initial_span or v.span) for v in spec.locals.values()]
         values += [(None, c.value, c.span) for c in spec.constants.values()]
-        values += [  # a task result's range
-            (r.type, bound.value, bound.span)
-            for command in spec.commands.values()
-            for r in command.results.values()
-            for bound in (r.low, r.high)
-            if bound is not None
-        ]
+        values += _result_bounds(spec)
     for kind, value, span in values:
         problem = expr.int_range_problem(value) if kind in (INT, None) else ""
         if not problem and kind == FLOAT and isinstance(value, int):
@@ -595,6 +589,17 @@ def _check_numbers(
                 problem = f"integer {str(value)[:27]}... is too large for a float"
         if problem:
             diags.error(span, "E110", problem, expr.INT_RANGE_HINT)
+
+
+def _result_bounds(spec: ControllerSpec) -> list[tuple[Type | None, object, Span]]:
+    """Each task result's `min` and `max`, with the result's type, for E110."""
+    return [
+        (result.type, bound.value, bound.span)
+        for command in spec.commands.values()
+        for result in command.results.values()
+        for bound in (result.low, result.high)
+        if bound is not None
+    ]
 
 
 def _check_enums_and_strings(
