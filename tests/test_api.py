@@ -250,7 +250,7 @@ class _Collector:
         return self.blocks
 
 
-def test_a_full_collection_comes_once_the_heap_has_more_than_doubled() -> None:
+def test_a_full_collection_comes_once_the_heap_has_more_than_doubled_since_the_last() -> None:
     """rcsgen/compiler/collector.py's policy, run by run in a process of its own (a fresh
     copy of the module): the first run measures the heap and collects nothing; a later run
     hands back what was frozen, and collects in full only once the heap is more than twice
