@@ -215,3 +215,72 @@ def test_garbage_frozen_with_a_run_is_collected_once_the_heap_has_grown(
         rcsgen.check(duo)
     gc.unfreeze()
     assert gone() is None, "cyclic garbage frozen with a run is never collected"
+
+
+class _Collector:
+    """A stand-in for the `gc` module: what `no_collections` asks of the collector, in order,
+    and a heap whose size (in the allocator's blocks) the test sets."""
+
+    def __init__(self, enabled: bool, blocks: int) -> None:
+        self.enabled, self.blocks, self.calls = enabled, blocks, list[str]()
+        self.left = blocks  # the heap a full collection leaves
+
+    def isenabled(self) -> bool:
+        return self.enabled
+
+    def disable(self) -> None:
+        self.enabled = False
+
+    def enable(self) -> None:
+        self.enabled = True
+        self.calls.append("enable")
+
+    def freeze(self) -> None:
+        self.calls.append("freeze")
+
+    def unfreeze(self) -> None:
+        self.calls.append("unfreeze")
+
+    def collect(self) -> int:
+        self.calls.append("collect")
+        self.blocks = self.left
+        return 0
+
+    def getallocatedblocks(self) -> int:  # (sys's, on the same heap)
+        return self.blocks
+
+
+def test_a_full_collection_comes_once_the_heap_has_more_than_doubled_since_the_last() -> None:
+    """rcsgen/compiler/collector.py's policy, run by run in a process of its own (a fresh
+    copy of the module): the first run measures the heap and collects nothing; a later run
+    hands back what was frozen, and collects in full only once the heap is more than twice
+    what the last collection left (GROWTH); a caller that had the collector off gets it
+    back off, with nothing frozen or handed back."""
+    import importlib.util
+
+    from rcsgen.compiler import collector
+
+    found = importlib.util.spec_from_file_location("fresh_collector", collector.__file__)
+    assert found is not None and found.loader is not None
+    fresh = importlib.util.module_from_spec(found)
+    found.loader.exec_module(fresh)
+
+    def run(enabled: bool, blocks: int, left: int = 0) -> list[str]:
+        fake = _Collector(enabled, blocks)
+        fake.left = left or blocks
+        fresh.gc = fresh.sys = fake
+        with fresh.no_collections():
+            assert not fake.enabled
+        assert fake.enabled is enabled
+        return fake.calls
+
+    assert fresh.GROWTH == 2 and fresh._last == 0
+    assert run(True, 1000) == ["freeze", "enable"]  # the first: nothing to hand back
+    assert fresh._last == 1000
+    assert run(True, 2000) == ["unfreeze", "freeze", "enable"]  # doubled, not more
+    assert fresh._last == 1000
+    assert run(True, 2001, left=1500) == ["unfreeze", "collect", "freeze", "enable"]
+    assert fresh._last == 1500  # (what survived the collection: the next measure)
+    assert run(True, 3000) == ["unfreeze", "freeze", "enable"]
+    assert run(False, 10_000) == []  # off when called: left off, nothing frozen
+    assert fresh._last == 1500

@@ -275,3 +275,68 @@ def test_the_harness_given_two_systems_says_which_and_where(tmp_path, monkeypatc
         )
         for name in ("tank", "vat")
     ]
+
+
+def test_a_process_running_a_module_with_no_near_name_lists_the_declared_controllers(
+    tmp_path, monkeypatch
+) -> None:
+    """E211's hint: the close name when there is one (the corpus), else every controller."""
+    system = SYSTEM.replace("modules: [tank]", "modules: [tank, boiler]")
+    assert said(tmp_path, monkeypatch, system, TANK) == [
+        (
+            "E211",
+            "process `p` runs `boiler`, which has no controller spec",
+            "declared controllers: `tank`",
+        )
+    ]
+
+
+def test_each_integer_value_out_of_range_is_found_beside_a_specs_constants(
+    tmp_path, monkeypatch
+) -> None:
+    """E110 for every value out of 64 bits, wherever it is declared: a world field's initial
+    and safe values, a local's initial value, a constant, all in one system."""
+    big = 2**63
+    system = SYSTEM.replace(
+        "processes:",
+        f"  count: {{type: int, initial: {big}, doc: A count.}}\n"
+        f"  limit: {{type: int, initial: -{big + 1}, actuator: true, safe: -{big + 1}, "
+        "doc: A limit.}\n"
+        "\nprocesses:",
+    )
+    tank = TANK.replace(
+        "commands:\n",
+        f"locals:\n  n: {{type: int, initial: {big + 2}, doc: A count.}}\n\n"
+        f"constants:\n  TOP: {big + 3}\n\ncommands:\n",
+        1,
+    )
+    found = said(tmp_path, monkeypatch, system, tank)
+    assert [message for _, message, _ in found] == [
+        f"integer {value} is out of range: an int is 64-bit (-{big} to {big - 1})"
+        for value in (big, -big - 1, -big - 1, big + 2, big + 3)
+    ]
+    assert {(code, hint) for code, _, hint in found} == {
+        ("E110", "use a smaller number, or a float if the value is not a count")
+    }
+
+
+@pytest.mark.parametrize(
+    ("edit", "name"),
+    [
+        (("reads: [level]", "reads: [level, pressure]"), "pressure"),
+        (("- set: {world.pump_on: true}", "- set: {world.flow: true}"), "flow"),
+    ],
+    ids=["reads", "set"],
+)
+def test_an_undeclared_world_field_with_no_near_name_lists_the_world_fields(
+    tmp_path, monkeypatch, edit, name: str
+) -> None:
+    """E104's hint, in a controller's `reads:` and at a `set:`: the close name when there
+    is one, else every world field declared."""
+    assert said(tmp_path, monkeypatch, SYSTEM, TANK.replace(*edit, 1)) == [
+        (
+            "E104",
+            f"undeclared world field `{name}`",
+            "declared world fields: `level`, `mode`, `pump_on`",
+        )
+    ]

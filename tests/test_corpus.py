@@ -255,6 +255,13 @@ def test_the_registry_is_the_one_list_of_codes() -> None:
     assert sorted(set(CODES) - tested) == [], "registered but tested by no case"
     assert WARNING_CODES == {c for c in documented if c.startswith("W")}
     assert index_markdown() in doc, "docs/diagnostics.md's index is not the registry's"
+    # E237's list: what a spec can acknowledge, by what each finding is about (W303's hint)
+    about = {c.about for c in CODES.values() if c.acknowledgeable}
+    assert about == {"a rule", "a state", "a command"}, "a subject W303 cannot place"
+    words = " ".join(doc.split())
+    for kind in sorted(about):
+        codes = ", ".join(sorted(code for code, c in CODES.items() if c.about == kind))
+        assert re.search(rf"- about {kind} \([^)]*\): {codes}[;.]", words), kind
 
 
 def test_the_registry_prints_the_docs_index() -> None:

@@ -421,6 +421,37 @@ def test_each_wrong_declaration_gets_its_one_error(tmp_path, monkeypatch, io, wa
     assert errors(tmp_path, monkeypatch, io) == [want]
 
 
+LONG = "9" * 400  # an int no float holds (the loader refuses `.inf` and `1e999` itself)
+
+
+@pytest.mark.parametrize(
+    ("io", "want"),
+    [
+        (
+            MODBUS.replace("timeout: 0.5", f"timeout: {LONG}")
+            + "  points:\n    level: {input_register: 0}\n",
+            ("E457", f"`{'9' * 27}...` is not a finite number of seconds", ""),
+        ),
+        (
+            MODBUS + f"  poll_period: {LONG}\n  points:\n    level: {{input_register: 0}}\n",
+            ("E457", f"`{'9' * 27}...` is not a finite number of seconds", ""),
+        ),
+        (
+            MODBUS + f"  points:\n    level: {{input_register: 0, scale: {LONG}}}\n",
+            ("E451", f"`{'9' * 27}...` is not a finite number", ""),
+        ),
+        (
+            MODBUS + f"  points:\n    level: {{input_register: 0, offset: -{LONG}}}\n",
+            ("E451", f"`-{'9' * 26}...` is not a finite number", ""),
+        ),
+    ],
+)
+def test_a_number_too_large_for_a_float_is_refused_as_not_finite(tmp_path, monkeypatch, io, want):
+    """A device's times, a point's scale and offset: an int with more digits than a float
+    holds is one located error quoting its first digits (it raised OverflowError)."""
+    assert errors(tmp_path, monkeypatch, io) == [want]
+
+
 def test_an_input_written_by_a_controller_names_the_writer(tmp_path, monkeypatch):
     [(code, message, hint)] = errors(
         tmp_path, monkeypatch, MODBUS + "  points:\n    valve_cmd: {input_register: 0}\n"

@@ -214,3 +214,27 @@ def test_only_the_every_cycle_rules_that_set_a_world_field_raise_the_world_set_f
     assert lowered.io is not None
     assert lowered.io.world_set_rules == (fills.id,)
     assert "world_set" in lowered.io.slots
+
+
+def test_a_rules_time_is_shown_as_written_and_in_cycles_one_cycle_singular(
+    tmp_path: Path,
+) -> None:
+    """A timed rule's comment in the generated table gives its `for:`/`after:` as the spec
+    writes it and the whole cycles it counts (`1 cycle`, `3 cycles`); an untimed rule none."""
+    top = TOP.replace(
+        "        - when: dev.status == DONE\n",
+        "        - when: dev.status == DONE\n          for: 1 cycle\n          after: 0.3 s\n",
+    ).replace(
+        "        - when: dev.status == ERROR\n",
+        "        - when: dev.status == ERROR\n          after: 0.1\n",
+    )
+    go = compiled(tmp_path, top=top)["top"].commands[-1]
+    assert [r.timing for r in go.states[1].rules] == [
+        "after: 0.1 s = 1 cycle",
+        "for: 1 cycle = 1 cycle, after: 0.3 s = 3 cycles",
+    ]
+    assert go.states[0].rules[0].timing == ""
+    assert [r.guard_operand for r in go.states[1].rules] == [  # (cycles in the state: ticks)
+        "self.dev_status == ERROR and self.ticks >= 1",
+        "self.held_go_s1_2 > 1 and self.ticks >= 3",
+    ]

@@ -68,3 +68,32 @@ def test_a_person_is_not_replaced_by_a_stand_in(tmp_path) -> None:
         "operator module `ldr` cannot be replaced by a stand-in",
         "a person answers it; script the person in a scenario's `operator:` section",
     ) in found, found
+
+
+LONG = "9" * 400  # no int64 holds it, nor a float
+
+
+@pytest.mark.parametrize(
+    ("new", "want"),
+    [
+        (
+            POST.replace("float", "int").replace("max: 5000.0", f"max: {LONG}"),
+            f"integer {'9' * 27}... is out of range: an int is 64-bit "
+            "(-9223372036854775808 to 9223372036854775807)",
+        ),
+        (
+            POST.replace("float", "int").replace("min: 0.0", f"min: -{LONG}"),
+            f"integer -{'9' * 26}... is out of range: an int is 64-bit "
+            "(-9223372036854775808 to 9223372036854775807)",
+        ),
+        (
+            POST.replace("max: 5000.0", f"max: {LONG}"),
+            f"integer {'9' * 27}... is too large for a float",
+        ),
+    ],
+)
+def test_a_bound_no_result_can_hold_is_e110_at_the_bound(tmp_path, new: str, want: str) -> None:
+    """A task result's `min` or `max` is a number of the result's type, like an initial
+    value: an int beyond 64 bits, or too large for a float, is E110 (it raised OverflowError)."""
+    found = errors(tmp_path, "ldr.yaml", POST, new)
+    assert found == [("E110", want, "use a smaller number, or a float if the value is not a count")]

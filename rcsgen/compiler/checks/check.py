@@ -568,8 +568,8 @@ def _spelt(value: object) -> str:
 def _check_numbers(
     system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
 ) -> None:
-    """Every integer constant and initial value fits in 64 bits (E110); an int given for a
-    float fits in a float."""
+    """Every integer constant, initial or safe value and task result's bound fits in 64 bits
+    (E110); an int given for a float fits in a float."""
     values: list[tuple[Type | None, object, Span]] = [  # None: a constant, of any type
         (f.type, f.initial, f.initial_span or f.span) for f in system.world.values()
     ]
@@ -579,6 +579,7 @@ def _check_numbers(
     for spec in controllers:
         values += [(v.type, v.initial, v.initial_span or v.span) for v in spec.locals.values()]
         values += [(None, c.value, c.span) for c in spec.constants.values()]
+        values += _result_bounds(spec)
     for kind, value, span in values:
         problem = expr.int_range_problem(value) if kind in (INT, None) else ""
         if not problem and kind == FLOAT and isinstance(value, int):
@@ -588,6 +589,17 @@ def _check_numbers(
                 problem = f"integer {str(value)[:27]}... is too large for a float"
         if problem:
             diags.error(span, "E110", problem, expr.INT_RANGE_HINT)
+
+
+def _result_bounds(spec: ControllerSpec) -> list[tuple[Type | None, object, Span]]:
+    """Each task result's `min` and `max`, with the result's type, for E110."""
+    return [
+        (result.type, bound.value, bound.span)
+        for command in spec.commands.values()
+        for result in command.results.values()
+        for bound in (result.low, result.high)
+        if bound is not None
+    ]
 
 
 def _check_enums_and_strings(
@@ -717,12 +729,12 @@ class _ControllerChecker:
         by_name: dict[str, ControllerSpec],
         system: SystemSpec,
         diags: Diagnostics,
-        contracts: hook_checks.HookContracts | None = None,
-        periods: Mapping[str, float] | None = None,
+        contracts: hook_checks.HookContracts,
+        periods: Mapping[str, float],
     ):
         self.spec, self.by_name, self.system, self.diags = spec, by_name, system, diags
-        self.periods = process_periods(system) if periods is None else periods
-        self.contracts = contracts or {}  # hook -> its parameters' annotated types
+        self.periods = periods  # each process's cycle period (process_periods)
+        self.contracts = contracts  # hook -> its parameters' annotated types
         self.checked_calls: set[str] = set()  # hooks whose arguments were compared
         self.subs = [s.value for s in spec.subordinates]
         self.predicate_trees: dict[str, expr.Expr] = {}  # for folding guards (set by check)

@@ -230,8 +230,8 @@ def _register(
     diags: Diagnostics,
 ) -> Point | None:
     register_type = str(point.register_type.value) if point.register_type else DEFAULT_REGISTER_TYPE
-    scale = float(point.scale.value) if point.scale else 1.0
-    offset = float(point.offset.value) if point.offset else 0.0
+    scale = _number(point.scale.value) if point.scale else 1.0
+    offset = _number(point.offset.value) if point.offset else 0.0
     word_order = str(point.word_order.value) if point.word_order else "big"
     if _register_problem(point, register_type, scale, offset, value_type, diags):
         return None
@@ -239,6 +239,21 @@ def _register(
         point.field, kind, address, output, value_type, register_type, scale, offset, word_order
     )
     return made if _fits(device, point, world, made, diags) else None
+
+
+def _number(value: float) -> float:
+    """A number of the spec as a float: an int too large for one is infinite, so that it is
+    reported as not finite (the loader refuses `.inf` and `1e999`, not a long int)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
+def _quoted(value: object) -> str:
+    """A number as the spec gives it, cut to 30 characters (as E110 cuts an int)."""
+    text = str(value)
+    return text if len(text) <= 30 else f"{text[:27]}..."
 
 
 def _register_problem(
@@ -251,8 +266,8 @@ def _register_problem(
 ) -> bool:
     """Whether a register's options cannot carry the field (reported, E451)."""
     for option in (point.scale, point.offset):
-        if option is not None and not math.isfinite(float(option.value)):
-            diags.error(option.span, "E451", f"`{option.value}` is not a finite number")
+        if option is not None and not math.isfinite(_number(option.value)):
+            diags.error(option.span, "E451", f"`{_quoted(option.value)}` is not a finite number")
             return True
     if scale == 0 and point.scale is not None:
         diags.error(
@@ -412,8 +427,7 @@ def _check_addresses(device: IoDevice, points: list[Point], diags: Diagnostics) 
 def _address(device: IoDevice, protocol: str, diags: Diagnostics) -> tuple[str, int]:
     text = str(device.address.value)
     found = (_OPC_URL if protocol == OPCUA else _HOST_PORT).match(text)
-    port = int(found["port"]) if found else 0
-    if found is None or not 0 < port < 65536:
+    if found is None or not 0 < int(found["port"]) < 65536:
         diags.error(
             device.address.span,
             "E456",
@@ -421,7 +435,7 @@ def _address(device: IoDevice, protocol: str, diags: Diagnostics) -> tuple[str, 
             "opc.tcp://HOST:PORT[/PATH]" if protocol == OPCUA else "HOST:PORT, e.g. 127.0.0.1:502",
         )
         return "", 0
-    return found["host"].strip("[]"), port
+    return found["host"].strip("[]"), int(found["port"])
 
 
 def _process(
@@ -462,11 +476,13 @@ def _timing(
         (p.cycle_period for p in system.processes if p.name == process and p.cycle_period),
         system.cycle_period,
     )
-    poll = float(device.poll_period.value) if device.poll_period else period
-    timeout = float(device.timeout.value)
+    poll = _number(device.poll_period.value) if device.poll_period else period
+    timeout = _number(device.timeout.value)
     for item, value in ((device.poll_period, poll), (device.timeout, timeout)):
         if item is not None and not math.isfinite(value):
-            diags.error(item.span, "E457", f"`{item.value}` is not a finite number of seconds")
+            diags.error(
+                item.span, "E457", f"`{_quoted(item.value)}` is not a finite number of seconds"
+            )
             return poll, timeout
     if timeout <= poll:
         diags.error(

@@ -313,7 +313,7 @@ def _check_range(module: str, command: Command, result: Typed, diags: Diagnostic
         )
         return
     for item in given:
-        if result.type == INT and not float(item.value).is_integer():
+        if result.type == INT and isinstance(item.value, float) and not item.value.is_integer():
             diags.error(
                 item.span,
                 "E910",
@@ -322,7 +322,7 @@ def _check_range(module: str, command: Command, result: Typed, diags: Diagnostic
             )
             return
     low, high = result.low, result.high
-    if low is not None and high is not None and float(low.value) > float(high.value):
+    if low is not None and high is not None and low.value > high.value:  # (an int exactly)
         diags.error(
             low.span,
             "E910",
