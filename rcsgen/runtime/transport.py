@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable, Sequence
+from operator import itemgetter
 from struct import Struct
 from types import ModuleType
 from typing import NamedTuple, Protocol
@@ -179,12 +181,36 @@ class Mirror:
         # times) and is read by people (ctl, the monitor), never by a controller: the
         # pushes of a fast process carry it only when `slow` is asked (zenoh_transport).
         self._fast = tuple(not key.endswith("/perf") for key in ordered)
-        self._runs = range(0, len(ordered), SEQ_RUN)
+        # A process looks, after each cycle, only at the records it writes (the layout's
+        # WRITES, but the performance buffers: those wait for a slow push), their sequence
+        # words in one unpack; the whole block every slow push (an operator's tool on its
+        # host may write any record there). An observer (no WRITES of its own) writes
+        # anything: it looks at everything every push.
+        writes = getattr(layout, "WRITES", {}).get(node)
+        self._mine = None if writes is None else self._written(writes)
+        self._every = tuple(range(len(ordered)))
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
         self.counters = Counters()
-        self._control = {f"{PROCESS_OWNER}/{p}/control" for p in layout.PROCESSES}
+        self._control_of = {f"{PROCESS_OWNER}/{p}/control": p for p in layout.PROCESSES}
+        self._control = set(self._control_of)
         self._own = f"{PROCESS_OWNER}/{node}/control"  # only this process writes it
+
+    def _written(self, offsets: tuple[int, ...]) -> tuple[int, ...]:
+        """The indices of the records at `offsets` but the performance buffers; their
+        sequence words' unpack (`_mine_seqs`) and what was sent of them (`_mine_known`)."""
+        index_at = {span[0]: i for i, span in enumerate(self._spans)}
+        mine = tuple(index_at[o] for o in sorted(offsets) if o in index_at)
+        mine = tuple(i for i in mine if self._fast[i])
+        mine_format, at = "<", self._spans[mine[0]][0] if mine else 0
+        self._mine_start = at
+        for i in mine:
+            offset = self._spans[i][0]
+            mine_format += (f"{offset - at}x" if offset > at else "") + "Q"
+            at = offset + SEQ.size
+        self._mine_seqs = Struct(mine_format)
+        self._mine_known = _getter(mine)
+        return mine
 
     def changed(self, everything: bool = False, slow: bool = True) -> list[tuple[str, bytes]]:
         """(key suffix, message) of each record this node wrote since it was last sent (with
@@ -193,13 +219,11 @@ class Mirror:
         control record of cycle N has everything that process wrote up to cycle N. Without
         `slow`, the performance buffers are left for a later push (their latest values
         then): everything else is as above."""
-        buf, epoch = self.block.buf, EPOCH.pack(self.epoch)
-        seqs, known = self._seqs.unpack_from(buf, self._start), self.known
+        buf, epoch, known = self.block.buf, EPOCH.pack(self.epoch), self.known
         keys, spans, owned, control = self._keys, self._spans, self.owned, self._control
         found: list[tuple[str, bytes]] = []
         last_ones: list[tuple[str, bytes]] = []
-        for i in self._candidates(seqs, everything, slow):
-            seq = seqs[i]
+        for i, seq in self._candidates(buf, everything, slow):
             if seq % 2:  # being written (a writer died mid-write): not whole, not sent
                 continue
             start, end = spans[i]
@@ -222,6 +246,14 @@ class Mirror:
     def unpack(self, payload: bytes) -> list[tuple[str, bytes]] | None:
         """The messages of a push, or None (counted) if any part is not a record of this
         layout: a push is applied whole or not at all."""
+        found = self.parse(payload)
+        if found is None:
+            self.counters.malformed += 1
+        return found
+
+    def parse(self, payload: bytes) -> list[tuple[str, bytes]] | None:
+        """`unpack` without counting: reads nothing but the layout, so any thread may call
+        it (Zenoh's, as a push arrives)."""
         found, at, total = [], 0, len(payload)
         keys, sizes, count, step = self._keys, self._sizes, len(self._keys), INDEX.size
         while at < total:
@@ -238,29 +270,37 @@ class Mirror:
             at = end
         else:
             return found
-        self.counters.malformed += 1
         return None
 
-    def _candidates(self, seqs: tuple[int, ...], everything: bool, slow: bool) -> list[int]:
-        """The indices of the records whose sequence word moved since they were last sent or
-        mirrored (with `everything`, also those whose value this node wrote; without
-        `slow`, not the performance buffers)."""
-        known = self.known
+    def beats(self, messages: list[tuple[str, bytes]]) -> list[tuple[str, int]]:
+        """(process, heartbeat) of each control record among a push's `messages` (they come
+        last: `changed`), as sent. Reads nothing but the messages: any thread."""
+        found, control = [], self._control_of
+        for key, message in reversed(messages):
+            process = control.get(key)
+            if process is None:
+                break
+            found.append((process, PROCESS.unpack_from(message, EPOCH.size)[4]))
+        return found
+
+    def _candidates(self, buf: memoryview, everything: bool, slow: bool) -> list[tuple[int, int]]:
+        """(index, sequence word) of the records whose word moved since they were last sent
+        or mirrored (with `everything`, also those whose value this node wrote; without
+        `slow`, not the performance buffers, and of a process only what it writes)."""
+        known, mine = self.known, self._mine
+        if mine is not None and not (slow or everything):
+            words = self._mine_seqs.unpack_from(buf, self._mine_start)
+            was = self._mine_known(known)  # what was sent of them, in the same order
+            return _moved(words, was, mine)
+        seqs = self._seqs.unpack_from(buf, self._start)
         if everything:
             owned, keys = self.owned, self._keys
-            return [i for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
-        # The words compared a run of SEQ_RUN at a time (two list slices compared in C: a
-        # push changes a few of a layout's hundreds of records), one by one only in a run
-        # that differs. (Comparing every word by itself, even in C with map/compress, made
-        # a call per record: 25 of a push's ~60 µs of Python in a hop, at load ~8.)
-        words, fast, found = list(seqs), self._fast, []
-        for a in self._runs:
-            b = a + SEQ_RUN
-            if words[a:b] != known[a:b]:
-                for i in range(a, min(b, len(words))):
-                    if words[i] != known[i] and (slow or fast[i]):
-                        found.append(i)
-        return found
+            return [(i, seq) for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
+        moved = _moved(seqs, known, self._every)
+        if slow:
+            return moved
+        fast = self._fast
+        return [(i, seq) for i, seq in moved if fast[i]]
 
     def apply(self, key: str, payload: bytes, now_ns: int | None = None) -> bool:
         """Mirror one message into the block; False when it is dropped (late, out of
@@ -335,6 +375,31 @@ class Mirror:
     def state(self, process: str) -> int:
         values = PROCESS.unpack_from(self.block.buf, self.layout.PROCESSES[process].offset)
         return int(values[2])
+
+
+def _moved(
+    words: Sequence[int], was: Sequence[int], indices: Sequence[int]
+) -> list[tuple[int, int]]:
+    """(indices[j], words[j]) for each j where `words` and `was` differ. They are compared
+    a run of SEQ_RUN at a time (two slices compared in C: a push changes a few of a layout's
+    hundreds of records), one by one only in a run that differs. (Comparing every word by
+    itself, even in C with map/compress, made a call per record: 25 of a push's ~60 µs of
+    Python in a hop, at load ~8.)"""
+    found, count = [], len(words)
+    for a in range(0, count, SEQ_RUN):
+        b = a + SEQ_RUN
+        if words[a:b] != was[a:b]:
+            for j in range(a, min(b, count)):
+                if words[j] != was[j]:
+                    found.append((indices[j], words[j]))
+    return found
+
+
+def _getter(indices: tuple[int, ...]) -> Callable[[Sequence[int]], tuple[int, ...]]:
+    """A function of a list: its items at `indices`, as a tuple (in C)."""
+    if len(indices) > 1:
+        return itemgetter(*indices)
+    return lambda items: tuple(items[i] for i in indices)
 
 
 def check_endpoint(text: str) -> str:

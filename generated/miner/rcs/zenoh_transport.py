@@ -68,6 +68,7 @@ WARN_EVERY = 10.0  # seconds: at most one line a peer about its malformed pushes
 # receives one message, not every other process's request too (all subscribe to the
 # whole prefix).
 STEP_ENTRY = Struct("<HH")
+Records = list[tuple[str, bytes]] | None  # a push's records (`Mirror.parse`), None: malformed
 
 
 @dataclass(frozen=True)
@@ -151,15 +152,21 @@ class ZenohTransport:
         layout = mirror.layout
         self.prefix = prefix(layout)
         self.node = process if process is not None else f"_observer_{mirror.epoch:016x}"
-        # What Zenoh's threads delivered, in order: a SimpleQueue (put and a timed get in C:
-        # no Python Condition on either side of the hand-off). What wakes a waiting node
-        # (`wait`, `hear`) is a token in `_bell`, put after each message that may let it go
-        # on: every message, but while `eager` is False (a lockstep process waiting for its
-        # step) not another node's push, which waits in the inbox to be applied with the
-        # step (one wake-up a cycle fewer for each other process's push).
-        self.inbox: queue.SimpleQueue[tuple[str, str, bytes]] = queue.SimpleQueue()
+        # What Zenoh's threads delivered, in order (a push already cut into its records
+        # there): a SimpleQueue (put and a timed get in C: no Python Condition on either
+        # side of the hand-off). What wakes a waiting node (`wait`, `hear`) is a token in
+        # `_bell`, put after each message that may let it go on: every message, but while
+        # `eager` is False (a lockstep process waiting for its step) not another node's
+        # push, which waits in the inbox to be applied with the step (one wake-up a cycle
+        # fewer for each other process's push); and while a wait names the heartbeats it
+        # needs (`awaited`: a lockstep process's records to read, a coordinator's answers),
+        # only the push after which every one of them has been sent (`beats`, each
+        # process's latest heartbeat as sent, kept by Zenoh's thread).
+        self.inbox: queue.SimpleQueue[tuple[str, str, bytes, Records]] = queue.SimpleQueue()
         self._bell: queue.SimpleQueue[None] = queue.SimpleQueue()
         self.eager = True
+        self.awaited: Mapping[str, int] | None = None
+        self.beats: dict[str, int] = {}
         self.steps: deque[bytes] = deque()
         self.lost: set[str] = set()
         self.joined: set[str] = set()
@@ -230,7 +237,15 @@ class ZenohTransport:
     def _sample(self, sample: Any) -> None:
         key = str(sample.key_expr)[self._cut :]
         if key.startswith(self._pushes):
-            self._arrived("push", key, sample.payload.to_bytes())
+            payload = sample.payload.to_bytes()
+            records = self.mirror.parse(payload)
+            beats = self.beats
+            if records is not None:
+                beats.update(self.mirror.beats(records))
+            self.inbox.put(("push", key, payload, records))
+            awaited = self.awaited  # (the token after the message: see `pull`)
+            if self.eager and (awaited is None or _met(beats, awaited)):
+                self._bell.put(None)
         elif key.startswith(self._steps):
             if self._me is not None:  # (an observer runs no step)
                 self._arrived("step", key[len(self._steps) :], sample.payload.to_bytes())
@@ -238,9 +253,8 @@ class ZenohTransport:
             self._arrived("heard", key[len(self._heard) :], sample.payload.to_bytes())
 
     def _arrived(self, kind: str, key: str, payload: bytes) -> None:
-        self.inbox.put((kind, key, payload))
-        if self.eager or kind != "push":  # (the token after the message: see `pull`)
-            self._bell.put(None)
+        self.inbox.put((kind, key, payload, None))
+        self._bell.put(None)  # (the token after the message: see `pull`)
 
     def _token(self, sample: Any) -> None:
         parts = str(sample.key_expr).split("/")  # rcs, system, hash-8, _alive, node
@@ -265,13 +279,13 @@ class ZenohTransport:
         while not inbox.empty():
             arrived.append(inbox.get_nowait())
         mirror = self.mirror
-        for kind, key, payload in arrived:
+        for kind, key, payload, records in arrived:
             if kind == "push":  # a sender's cycle, whole: applied whole, in the order sent
                 sender, _, full = key[len(self._pushes) :].partition("/")
                 if sender not in self.heard:
                     self.heard.add(sender)
                     self._tell = True
-                whole = self._push(sender, payload)
+                whole = self._push(sender, payload, records)
                 if full == FULL and whole:
                     self.synced.add(sender)
             elif kind == "step":
@@ -302,13 +316,14 @@ class ZenohTransport:
                         "(rebuild every host from the same specs)"
                     )
 
-    def _push(self, sender: str, payload: bytes) -> bool:
-        """One push from `sender`: its records applied whole, or refused whole (malformed,
-        said in one line at most every WARN_EVERY seconds per peer); counted per peer.
-        Whether it was whole."""
+    def _push(self, sender: str, payload: bytes, records: Records) -> bool:
+        """One push from `sender` (its `records` as `Mirror.parse` found them): applied
+        whole, or refused whole (malformed, said in one line at most every WARN_EVERY
+        seconds per peer); counted per peer. Whether it was whole."""
         mirror, counters = self.mirror, self.mirror.counters
         before = (counters.applied, counters.late, counters.malformed)
-        records = mirror.unpack(payload)
+        if records is None:
+            counters.malformed += 1
         for record, message in records or ():
             if self._wanted(record):
                 mirror.apply(record, message)
@@ -450,8 +465,23 @@ class ZenohTransport:
             )
         self._stepper.put(payload)
 
-    def wait(self, ready: Callable[[], bool], timeout: float | None) -> bool:
-        """Pull until `ready()` holds (True) or `timeout` seconds pass (False)."""
+    def wait(
+        self,
+        ready: Callable[[], bool],
+        timeout: float | None,
+        awaited: Mapping[str, int] | None = None,
+    ) -> bool:
+        """Pull until `ready()` holds (True) or `timeout` seconds pass (False). With
+        `awaited` (process -> heartbeat: what `ready` waits for, besides liveness), a push
+        wakes this thread only once every process named has sent its heartbeat (a lockstep
+        cycle's records in: not woken by each other push before them)."""
+        self.awaited = awaited
+        try:
+            return self._wait(ready, timeout)
+        finally:
+            self.awaited = None
+
+    def _wait(self, ready: Callable[[], bool], timeout: float | None) -> bool:
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             self.pull()
@@ -555,7 +585,7 @@ def serve(
             required = Struct(f"<{len(names)}Q").unpack_from(request, STEP.size)
             me = process.plan.name
             others = [(n, r) for n, r in zip(names, required, strict=True) if n != me]
-            if not transport.wait(_reached(mirror, others), timeout):
+            if not transport.wait(_reached(mirror, others), timeout, dict(others)):
                 missing = [n for n, r in others if mirror.heartbeat(n) < r]
                 return f"the records of {missing} did not arrive within {timeout:g} s"
             process.run_modules(first, last)
@@ -566,6 +596,11 @@ def serve(
     finally:
         process.beat(STOPPED)  # sent as the caller closes the transport
     return None
+
+
+def _met(beats: Mapping[str, int], awaited: Mapping[str, int]) -> bool:
+    """Whether every process `awaited` names has sent (`beats`) the heartbeat it needs."""
+    return all(beats.get(name, -1) >= beat for name, beat in awaited.items())
 
 
 def _reached(mirror: Mirror, others: list[tuple[str, int]]) -> Callable[[], bool]:
