@@ -29,6 +29,7 @@ from .override import mirrored
 
 # Before a record's bytes: the sender's incarnation (random per start).
 EPOCH = Struct("<Q")
+HEAD = Struct("<QQ")  # a message's head: the sender's epoch, the record's sequence word
 # A push (what a node wrote in a cycle) travels as one message: each record as its index in
 # the layout's records (by offset: the same on every node of one layout hash), then its
 # message (EPOCH and the record's bytes, whose size the layout gives).
@@ -193,6 +194,12 @@ class Mirror:
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
         self.counters = Counters()
+        # each record's index, offset and message size, by key (what `apply` looks up once)
+        self._where = {
+            key: (i, self.records[key].offset, size)
+            for i, (key, size) in enumerate(zip(ordered, self._sizes, strict=True))
+        }
+        self._overrides = {key for key in ordered if key.startswith(f"{OVERRIDE_OWNER}/")}
         self._control_of = {f"{PROCESS_OWNER}/{p}/control": p for p in layout.PROCESSES}
         self._control = set(self._control_of)
         self._own = f"{PROCESS_OWNER}/{node}/control"  # only this process writes it
@@ -306,14 +313,13 @@ class Mirror:
     def apply(self, key: str, payload: bytes, now_ns: int | None = None) -> bool:
         """Mirror one message into the block; False when it is dropped (late, out of
         order, for no record of this layout, or of the wrong size)."""
-        record = self.records.get(key)
+        where = self._where.get(key)
         if key == self._own:  # another node's idea of us (a launcher's DEAD): ours wins
             return False
-        if record is None or len(payload) != EPOCH.size + record.struct.size:
+        if where is None or len(payload) != where[2]:
             self.counters.malformed += 1
             return False
-        epoch = EPOCH.unpack_from(payload, 0)[0]
-        seq = SEQ.unpack_from(payload, EPOCH.size)[0]
+        epoch, seq = HEAD.unpack_from(payload, 0)
         if epoch == self.epoch:  # our own message, looped back
             return False
         previous = self.last.get(key)
@@ -326,13 +332,14 @@ class Mirror:
             return False
         self.last[key] = (epoch, seq)
         if key in self._control:
+            record = self.records[key]
             values = list(record.struct.unpack_from(payload, EPOCH.size))
             # seq, pid, state, watchdog_trips, heartbeat, beat_ns, ...
             values[5] = time.monotonic_ns() if now_ns is None else now_ns
             self._write(key, record, values[1:])
         else:  # its fields' bytes as they came (the same struct, no padding): no unpacking
-            self._copy(key, record, payload)
-        if key.startswith(OVERRIDE_OWNER):  # the flag the generated modules look at
+            self._copy(where, payload)
+        if key in self._overrides:  # the flag the generated modules look at
             mirrored(self.layout, self.block.buf)
         self.owned.discard(key)
         self.counters.applied += 1
@@ -351,14 +358,15 @@ class Mirror:
         self.last.pop(key, None)
         self.counters.lost.append(process)
 
-    def _copy(self, key: str, record: Record, message: bytes) -> None:
-        """A message's record bytes after its sequence word, into the block (seqlock)."""
-        buf, at = self.block.buf, record.offset
-        seq = next_odd(record.seq(buf))
+    def _copy(self, where: tuple[int, int, int], message: bytes) -> None:
+        """A message's record bytes after its sequence word, into the block (seqlock), the
+        record `where` says: its index, offset and message size (`_where`)."""
+        buf, (index, at, size) = self.block.buf, where
+        seq = next_odd(SEQ.unpack_from(buf, at)[0])
         SEQ.pack_into(buf, at, seq)  # odd before any field changes
-        buf[at + SEQ.size : at + record.struct.size] = message[EPOCH.size + SEQ.size :]
+        buf[at + SEQ.size : at + size - EPOCH.size] = message[HEAD.size :]
         SEQ.pack_into(buf, at, seq + 1)
-        self.known[self._index[key]] = seq + 1
+        self.known[index] = seq + 1
 
     def _write(self, key: str, record: Record, values: list[object]) -> None:
         buf = self.block.buf
