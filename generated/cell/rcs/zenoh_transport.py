@@ -68,7 +68,6 @@ WARN_EVERY = 10.0  # seconds: at most one line a peer about its malformed pushes
 # receives one message, not every other process's request too (all subscribe to the
 # whole prefix).
 STEP_ENTRY = Struct("<HH")
-Records = list[tuple[str, bytes]] | None  # a push's records (`Mirror.parse`), None: malformed
 
 
 @dataclass(frozen=True)
@@ -152,17 +151,19 @@ class ZenohTransport:
         layout = mirror.layout
         self.prefix = prefix(layout)
         self.node = process if process is not None else f"_observer_{mirror.epoch:016x}"
-        # What Zenoh's threads delivered, in order (a push already cut into its records
-        # there): a SimpleQueue (put and a timed get in C: no Python Condition on either
-        # side of the hand-off). What wakes a waiting node (`wait`, `hear`) is a token in
-        # `_bell`, put after each message that may let it go on: every message, but while
-        # `eager` is False (a lockstep process waiting for its step) not another node's
-        # push, which waits in the inbox to be applied with the step (one wake-up a cycle
-        # fewer for each other process's push); and while a wait names the heartbeats it
-        # needs (`awaited`: a lockstep process's records to read, a coordinator's answers),
-        # only the push after which every one of them has been sent (`beats`, each
-        # process's latest heartbeat as sent, kept by Zenoh's thread).
-        self.inbox: queue.SimpleQueue[tuple[str, str, bytes, Records]] = queue.SimpleQueue()
+        # What Zenoh's threads delivered, in order: a SimpleQueue (put and a timed get in C:
+        # no Python Condition on either side of the hand-off). What wakes a waiting node
+        # (`wait`, `hear`) is a token in `_bell`, put after each message that may let it go
+        # on: every message, but while `eager` is False (a lockstep process waiting for its
+        # step) not another node's push, which waits in the inbox to be applied with the
+        # step (one wake-up a cycle fewer for each other process's push); and while a wait
+        # names the heartbeats it needs (`awaited`: a lockstep process's records to read, a
+        # coordinator's answers), only the push after which every one of them has been
+        # sent (`beats`: the highest heartbeat each process has sent, as the ends of its
+        # pushes say, kept by Zenoh's thread; only ever raised, so a push's data mistaken
+        # for a beat can wake the thread early, which then waits again, and never keep it
+        # from waking).
+        self.inbox: queue.SimpleQueue[tuple[str, str, bytes]] = queue.SimpleQueue()
         self._bell: queue.SimpleQueue[None] = queue.SimpleQueue()
         self.eager = True
         self.awaited: Mapping[str, int] | None = None
@@ -238,11 +239,10 @@ class ZenohTransport:
         key = str(sample.key_expr)[self._cut :]
         if key.startswith(self._pushes):
             payload = sample.payload.to_bytes()
-            records = self.mirror.parse(payload)
-            beats = self.beats
-            if records is not None:
-                beats.update(self.mirror.beats(records))
-            self.inbox.put(("push", key, payload, records))
+            beats, beat = self.beats, self.mirror.last_beat(payload)
+            if beat is not None and beat[1] > beats.get(beat[0], -1):
+                beats[beat[0]] = beat[1]
+            self.inbox.put(("push", key, payload))
             awaited = self.awaited  # (the token after the message: see `pull`)
             if self.eager and (awaited is None or _met(beats, awaited)):
                 self._bell.put(None)
@@ -253,7 +253,7 @@ class ZenohTransport:
             self._arrived("heard", key[len(self._heard) :], sample.payload.to_bytes())
 
     def _arrived(self, kind: str, key: str, payload: bytes) -> None:
-        self.inbox.put((kind, key, payload, None))
+        self.inbox.put((kind, key, payload))
         self._bell.put(None)  # (the token after the message: see `pull`)
 
     def _token(self, sample: Any) -> None:
@@ -279,13 +279,13 @@ class ZenohTransport:
         while not inbox.empty():
             arrived.append(inbox.get_nowait())
         mirror = self.mirror
-        for kind, key, payload, records in arrived:
+        for kind, key, payload in arrived:
             if kind == "push":  # a sender's cycle, whole: applied whole, in the order sent
                 sender, _, full = key[len(self._pushes) :].partition("/")
                 if sender not in self.heard:
                     self.heard.add(sender)
                     self._tell = True
-                whole = self._push(sender, payload, records)
+                whole = self._push(sender, payload)
                 if full == FULL and whole:
                     self.synced.add(sender)
             elif kind == "step":
@@ -316,14 +316,13 @@ class ZenohTransport:
                         "(rebuild every host from the same specs)"
                     )
 
-    def _push(self, sender: str, payload: bytes, records: Records) -> bool:
-        """One push from `sender` (its `records` as `Mirror.parse` found them): applied
-        whole, or refused whole (malformed, said in one line at most every WARN_EVERY
-        seconds per peer); counted per peer. Whether it was whole."""
+    def _push(self, sender: str, payload: bytes) -> bool:
+        """One push from `sender`: its records applied whole, or refused whole (malformed,
+        said in one line at most every WARN_EVERY seconds per peer); counted per peer.
+        Whether it was whole."""
         mirror, counters = self.mirror, self.mirror.counters
         before = (counters.applied, counters.late, counters.malformed)
-        if records is None:
-            counters.malformed += 1
+        records = mirror.unpack(payload)
         for record, message in records or ():
             if self._wanted(record):
                 mirror.apply(record, message)

@@ -200,8 +200,12 @@ class Mirror:
             for i, (key, size) in enumerate(zip(ordered, self._sizes, strict=True))
         }
         self._overrides = {key for key in ordered if key.startswith(f"{OVERRIDE_OWNER}/")}
-        self._control_of = {f"{PROCESS_OWNER}/{p}/control": p for p in layout.PROCESSES}
-        self._control = set(self._control_of)
+        self._control = {f"{PROCESS_OWNER}/{p}/control" for p in layout.PROCESSES}
+        # a control record's index in a push -> its process; its size there (`last_beat`)
+        self._beat_index = {
+            self._index[f"{PROCESS_OWNER}/{p}/control"]: p for p in layout.PROCESSES
+        }
+        self._beat_size = INDEX.size + EPOCH.size + PROCESS.size
         self._own = f"{PROCESS_OWNER}/{node}/control"  # only this process writes it
 
     def _written(self, offsets: tuple[int, ...]) -> tuple[int, ...]:
@@ -254,14 +258,6 @@ class Mirror:
     def unpack(self, payload: bytes) -> list[tuple[str, bytes]] | None:
         """The messages of a push, or None (counted) if any part is not a record of this
         layout: a push is applied whole or not at all."""
-        found = self.parse(payload)
-        if found is None:
-            self.counters.malformed += 1
-        return found
-
-    def parse(self, payload: bytes) -> list[tuple[str, bytes]] | None:
-        """`unpack` without counting: reads nothing but the layout, so any thread may call
-        it (Zenoh's, as a push arrives)."""
         found, at, total = [], 0, len(payload)
         keys, sizes, count, step = self._keys, self._sizes, len(self._keys), INDEX.size
         while at < total:
@@ -278,18 +274,22 @@ class Mirror:
             at = end
         else:
             return found
+        self.counters.malformed += 1
         return None
 
-    def beats(self, messages: list[tuple[str, bytes]]) -> list[tuple[str, int]]:
-        """(process, heartbeat) of each control record among a push's `messages` (they come
-        last: `changed`), as sent. Reads nothing but the messages: any thread."""
-        found, control = [], self._control_of
-        for key, message in reversed(messages):
-            process = control.get(key)
-            if process is None:
-                break
-            found.append((process, PROCESS.unpack_from(message, EPOCH.size)[4]))
-        return found
+    def last_beat(self, payload: bytes) -> tuple[str, int] | None:
+        """(process, heartbeat) of the control record a push ends with (a process's push
+        ends with its own, when it beat: `changed`), as sent; None when its last bytes are
+        not one. Constant time, reads nothing but the payload and the layout: any thread
+        (Zenoh's, as the push arrives). A push that does not end with a control record may
+        still look as if it did (its bytes are data): take what this says as a hint."""
+        start = len(payload) - self._beat_size
+        if start < 0:
+            return None
+        process = self._beat_index.get(INDEX.unpack_from(payload, start)[0])
+        if process is None:
+            return None
+        return process, PROCESS.unpack_from(payload, start + INDEX.size + EPOCH.size)[4]
 
     def _candidates(self, buf: memoryview, everything: bool, slow: bool) -> list[tuple[int, int]]:
         """(index, sequence word) of the records whose word moved since they were last sent
