@@ -144,6 +144,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_prove_seeds",
             "test_prove_shortcuts",
             "test_reasons_survive",
+            "test_process_writes",
             "test_results_visible",
             "test_run",
             "test_runtime_safety",

@@ -144,10 +144,11 @@ def test_a_changed_record_is_found_wherever_it_lies_in_the_runs_of_sequence_word
     miner: ModuleType,
 ) -> None:
     """`changed` compares the sequence words SEQ_RUN at a time: a record at either end of a
-    run, in the last (short) run, or two in one run, is found and sent once, in layout order."""
+    run, in the last (short) run, or two in one run, is found and sent once, in layout order
+    (an observer's mirror: it looks at every record every push)."""
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
     block = rcs(miner, "rcs.block").Block(layout)
-    mirror = transport.Mirror(layout, block, "pc2")
+    mirror = transport.Mirror(layout, block)
     keys, run = mirror._keys, transport.SEQ_RUN
     picks = sorted({0, run - 1, run, run + 1, 3 * run - 1, len(keys) - 2, len(keys) - 1})
     seq = transport.SEQ
@@ -163,6 +164,27 @@ def test_a_changed_record_is_found_wherever_it_lies_in_the_runs_of_sequence_word
         record = mirror.records[keys[i]]
         seq.pack_into(block.buf, record.offset, seq.unpack_from(block.buf, record.offset)[0] + 2)
     assert {key for key, _ in mirror.changed(slow=False)} == {keys[i] for i in fast}
+
+
+def test_a_process_looks_every_push_only_at_what_it_writes_and_at_the_rest_every_slow_one(
+    miner: ModuleType,
+) -> None:
+    """A process's push looks only at the records the layout's writer table gives it; what
+    else is written into its block (an operator's `ctl slow` on its host) goes with the next
+    slow push, and a record of its table in the same run of words as the other is found."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    block = rcs(miner, "rcs.block").Block(layout)
+    mirror = transport.Mirror(layout, block, "pc2")
+    mine = {key for key, r in mirror.records.items() if r.offset in layout.WRITES["pc2"]}
+    assert {"pp/status", "_process/pc2/control"} <= mine
+    assert not {"_process/pc2/pace", "sec/status", "pp/answer"} & mine
+    layout.PACING["pc2"].write(block.buf, slow=2.0)  # not pc2's to write: an operator's
+    layout.STATUS_OUT["pp"].write(block.buf, status_num=1, status=2)
+    layout.PROCESSES["pc2"].write(block.buf, heartbeat=1)
+    assert [k for k, _ in mirror.changed(slow=False)] == ["pp/status", "_process/pc2/control"]
+    assert [k for k, _ in mirror.changed(slow=False)] == []
+    assert [k for k, _ in mirror.changed()] == ["_process/pc2/pace"]  # slow: everything
+    assert mirror.changed() == []
 
 
 def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType) -> None:
@@ -397,6 +419,34 @@ def test_a_process_waiting_for_its_step_is_not_woken_by_pushes_and_applies_them_
         assert waiting.result(10.0)
     assert asked[-1] == 40, "every push applied, the last one last, with the step"
     assert len(asked) < 10, f"woken {len(asked)} times for 40 pushes and a step"
+
+
+def test_a_wait_for_heartbeats_is_woken_by_the_push_that_brings_the_last_of_them(
+    miner: ModuleType,
+) -> None:
+    """A wait that names the heartbeats it needs (a coordinator's answers, a lockstep
+    process's records to read) is not woken by each push before the one that brings the
+    last of them: its `ready` is asked a few times (the 0.2 s stop checks), not once a
+    push; each push is applied, in order, when it is."""
+    layout = rcs(miner, "layout")
+    control, asked = layout.PROCESSES["pc1"], []
+    with lockstep_pair(miner) as (process, observer):
+        process_block, observer_block = process.mirror.block, observer.mirror.block
+
+        def answered() -> bool:
+            beat = control.read(process_block.buf)["heartbeat"]
+            asked.append(beat)
+            return beat >= 40
+
+        waiting = ThreadPoolExecutor(1).submit(process.wait, answered, 20.0, {"pc1": 40})
+        wait_for(lambda: bool(asked), "the process waiting", 10.0)
+        for beat in range(1, 41):  # pc1's heartbeat, one push each (as an observer relays)
+            control.write(observer_block.buf, heartbeat=beat)
+            observer.push()
+            time.sleep(0.005)
+        assert waiting.result(20.0)
+    assert asked[-1] == 40
+    assert len(asked) < 10, f"woken {len(asked)} times for 40 pushes"
 
 
 def test_a_malformed_step_request_is_counted_for_its_sender_and_never_run(

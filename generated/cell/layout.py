@@ -208,6 +208,37 @@ SAFE_VALUES: dict[str, object] = {
 ACTUATED_BY = {
     "arm_speed": "cell",
 }
+# The records each process writes into its own block (their offsets, in layout order): what a
+# network transport looks at after each of its cycles to send it (rcs/transport.py); the
+# rest of its block (an operator's tool writing there) it looks at every slow push.
+WRITES: dict[str, tuple[int, ...]] = {
+    "cell": (
+        80,  # PROCESS_CELL
+        264,  # SUP_COMMAND
+        296,  # SUP_STATUS
+        344,  # SUP_MODE
+        360,  # SUP_PERF
+        408,  # PLN_COMMAND
+        440,  # PLN_STATUS
+        480,  # PLN_MODE
+        496,  # PLN_PERF
+        544,  # EXE_COMMAND
+        576,  # EXE_STATUS
+        608,  # EXE_MODE
+        624,  # EXE_PERF
+        672,  # ARM_COMMAND
+        696,  # ARM_STATUS
+        728,  # ARM_MODE
+        744,  # ARM_PERF
+        792,  # WORLD_ARM_X
+        808,  # WORLD_ARM_SPEED
+        864,  # OVERRIDE_ARM_SPEED
+        888,  # TIME_SUP
+        960,  # TIME_PLN
+        1000,  # TIME_EXE
+        1040,  # TIME_ARM
+    ),
+}
 # The modules that write each world field (a stand-in writes in its controller's place), for
 # `ctl force`: forcing a field takes it from them, which needs override on each.
 WORLD_WRITERS: dict[str, tuple[str, ...]] = {

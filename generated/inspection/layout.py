@@ -685,6 +685,105 @@ ACTUATED_BY = {
     "motor_y": "iws",
     "motor_z": "iws",
 }
+# The records each process writes into its own block (their offsets, in layout order): what a
+# network transport looks at after each of its cycles to send it (rcs/transport.py); the
+# rest of its block (an operator's tool writing there) it looks at every slow push.
+WRITES: dict[str, tuple[int, ...]] = {
+    "iws": (
+        80,  # PROCESS_IWS
+        264,  # SHOP_COMMAND
+        328,  # SHOP_STATUS
+        400,  # SHOP_MODE
+        416,  # SHOP_PERF
+        464,  # JP_COMMAND
+        528,  # JP_STATUS
+        584,  # JP_MODE
+        600,  # JP_PERF
+        648,  # WC_COMMAND
+        736,  # WC_STATUS
+        792,  # WC_MODE
+        808,  # WC_PERF
+        856,  # WS_COMMAND
+        912,  # WS_STATUS
+        984,  # WS_MODE
+        1000,  # WS_PERF
+        1048,  # MS_COMMAND
+        1120,  # MS_STATUS
+        1208,  # MS_MODE
+        1224,  # MS_PERF
+        1272,  # FX_COMMAND
+        1336,  # FX_STATUS
+        1400,  # FX_MODE
+        1416,  # FX_PERF
+        1464,  # TL_COMMAND
+        1488,  # TL_STATUS
+        1528,  # TL_MODE
+        1544,  # TL_PERF
+        1592,  # CMM_COMMAND
+        1624,  # CMM_STATUS
+        1688,  # CMM_MODE
+        1704,  # CMM_PERF
+        1752,  # PRIM_COMMAND
+        1800,  # PRIM_STATUS
+        1840,  # PRIM_MODE
+        1856,  # PRIM_PERF
+        1904,  # SERVO_COMMAND
+        1952,  # SERVO_STATUS
+        1992,  # SERVO_MODE
+        2008,  # SERVO_PERF
+        2056,  # OP_MODE
+        2072,  # OP_PERF
+        2120,  # OP_FX_COMMAND
+        2160,  # OP_FX_STATUS
+        2216,  # OP_TL_COMMAND
+        2256,  # OP_TL_STATUS
+        2312,  # CMM_SIM_COMMAND
+        2336,  # CMM_SIM_STATUS
+        2368,  # CMM_SIM_MODE
+        2384,  # CMM_SIM_PERF
+        2432,  # DRIVES_COMMAND
+        2456,  # DRIVES_STATUS
+        2488,  # DRIVES_MODE
+        2504,  # DRIVES_PERF
+        2552,  # PDM_COMMAND
+        2576,  # PDM_STATUS
+        2608,  # PDM_MODE
+        2624,  # PDM_PERF
+        2672,  # WORLD_CMM_OP
+        2688,  # WORLD_CMM_FEATURE
+        2704,  # WORLD_CMM_SEQ
+        2720,  # WORLD_CMM_DONE_SEQ
+        2736,  # WORLD_CMM_READING
+        2752,  # WORLD_CMM_ALARM
+        2784,  # WORLD_MOTOR_X
+        2800,  # WORLD_MOTOR_Y
+        2816,  # WORLD_MOTOR_Z
+        2832,  # WORLD_AXIS_X
+        2848,  # WORLD_AXIS_Y
+        2864,  # WORLD_AXIS_Z
+        2880,  # WORLD_CAMERA_SCALE
+        2912,  # WORLD_PDM_REQUEST
+        2952,  # WORLD_PDM_SEQ
+        2968,  # WORLD_PDM_DONE_SEQ
+        2984,  # WORLD_PDM_FEATURES
+        3184,  # OVERRIDE_MOTOR_X
+        3208,  # OVERRIDE_MOTOR_Y
+        3232,  # OVERRIDE_MOTOR_Z
+        3496,  # TIME_SHOP
+        3608,  # TIME_JP
+        3664,  # TIME_WC
+        3736,  # TIME_WS
+        3848,  # TIME_MS
+        3928,  # TIME_FX
+        3984,  # TIME_TL
+        4040,  # TIME_CMM
+        4104,  # TIME_PRIM
+        4176,  # TIME_SERVO
+        4216,  # TIME_CMM_SIM
+        4256,  # TIME_DRIVES
+        4296,  # TIME_PDM
+    ),
+}
 # The fields that hold an enumeration's value, by (module, or "" for the world; field): the
 # value names, indexed by the code the field holds, for traces, displays and `ctl send`.
 ENUMS: dict[tuple[str, str], tuple[str, ...]] = {

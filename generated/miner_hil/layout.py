@@ -744,6 +744,148 @@ ACTUATED_BY = {
     "gather_on_cmd": "pc1",
     "conveyor_on_cmd": "pc1",
 }
+# The records each process writes into its own block (their offsets, in layout order): what a
+# network transport looks at after each of its cycles to send it (rcs/transport.py); the
+# rest of its block (an operator's tool writing there) it looks at every slow push.
+WRITES: dict[str, tuple[int, ...]] = {
+    "pc1": (
+        80,  # PROCESS_PC1
+        448,  # SEC_COMMAND
+        488,  # SEC_STATUS
+        520,  # SEC_MODE
+        536,  # SEC_PERF
+        584,  # SB_COMMAND
+        624,  # SB_STATUS
+        656,  # SB_MODE
+        672,  # SB_PERF
+        720,  # CO_COMMAND
+        760,  # CO_STATUS
+        792,  # CO_MODE
+        808,  # CO_PERF
+        856,  # CC_COMMAND
+        880,  # CC_STATUS
+        912,  # CC_MODE
+        928,  # CC_PERF
+        976,  # BM_COMMAND
+        1000,  # BM_STATUS
+        1032,  # BM_MODE
+        1048,  # BM_PERF
+        1096,  # CD_COMMAND
+        1120,  # CD_STATUS
+        1152,  # CD_MODE
+        1168,  # CD_PERF
+        1216,  # SJ_COMMAND
+        1240,  # SJ_STATUS
+        1272,  # SJ_MODE
+        1288,  # SJ_PERF
+        1336,  # CR_COMMAND
+        1360,  # CR_STATUS
+        1392,  # CR_MODE
+        1408,  # CR_PERF
+        1456,  # GH_COMMAND
+        1480,  # GH_STATUS
+        1512,  # GH_MODE
+        1528,  # GH_PERF
+        1576,  # CV_COMMAND
+        1600,  # CV_STATUS
+        1632,  # CV_MODE
+        1648,  # CV_PERF
+        1696,  # CT_COMMAND
+        1720,  # CT_STATUS
+        1752,  # CT_MODE
+        1768,  # CT_PERF
+        1816,  # VG_COMMAND
+        1856,  # VG_STATUS
+        1888,  # VG_MODE
+        1904,  # VG_PERF
+        1952,  # TC_COMMAND
+        1976,  # TC_STATUS
+        2008,  # TC_MODE
+        2024,  # TC_PERF
+        2072,  # WM_COMMAND
+        2096,  # WM_STATUS
+        2128,  # WM_MODE
+        2144,  # WM_PERF
+        2192,  # PP_COMMAND
+        2328,  # WORLD_TAIL_REQUEST
+        2344,  # WORLD_TAIL_IN_POSITION
+        2376,  # WORLD_OPERATOR_GOAL_X
+        2392,  # WORLD_OPERATOR_GOAL_Y
+        2408,  # WORLD_GOAL_X
+        2424,  # WORLD_GOAL_Y
+        2504,  # WORLD_BOOM_RATE_CMD
+        2520,  # WORLD_DRUM_ON_CMD
+        2536,  # WORLD_JACK_DOWN_CMD
+        2552,  # WORLD_LEFT_TREAD_CMD
+        2568,  # WORLD_RIGHT_TREAD_CMD
+        2584,  # WORLD_PAN_FLOAT_CMD
+        2600,  # WORLD_GATHER_ON_CMD
+        2616,  # WORLD_CONVEYOR_ON_CMD
+        2712,  # WORLD_JACK_DOWN
+        2760,  # WORLD_POSE_X
+        2776,  # WORLD_POSE_Y
+        2792,  # WORLD_HEADING
+        2808,  # WORLD_BOOM_ANGLE
+        2824,  # WORLD_CUTTER_CURRENT
+        2840,  # WORLD_LOOSE_COAL
+        2856,  # WORLD_POPPED_OUT_OF_SHEAR
+        2872,  # WORLD_DEPTH_EST
+        2888,  # WORLD_DRUM_REACH
+        2904,  # WORLD_SUMP_STEP
+        3032,  # OVERRIDE_TAIL_REQUEST
+        3296,  # OVERRIDE_BOOM_RATE_CMD
+        3320,  # OVERRIDE_DRUM_ON_CMD
+        3344,  # OVERRIDE_JACK_DOWN_CMD
+        3368,  # OVERRIDE_LEFT_TREAD_CMD
+        3392,  # OVERRIDE_RIGHT_TREAD_CMD
+        3416,  # OVERRIDE_PAN_FLOAT_CMD
+        3440,  # OVERRIDE_GATHER_ON_CMD
+        3464,  # OVERRIDE_CONVEYOR_ON_CMD
+        4512,  # TIME_SEC
+        4560,  # TIME_SB
+        4704,  # TIME_CO
+        4784,  # TIME_CC
+        4840,  # TIME_BM
+        4888,  # TIME_CD
+        4928,  # TIME_SJ
+        4976,  # TIME_CR
+        5032,  # TIME_GH
+        5072,  # TIME_CV
+        5112,  # TIME_CT
+        5160,  # TIME_VG
+        5296,  # TIME_TC
+        5344,  # TIME_WM
+    ),
+    "pc2": (
+        264,  # PROCESS_PC2
+        2232,  # PP_STATUS
+        2264,  # PP_MODE
+        2280,  # PP_PERF
+        2328,  # WORLD_TAIL_REQUEST
+        2440,  # WORLD_PATH_OK
+        2456,  # WORLD_WP_X
+        2472,  # WORLD_WP_Y
+        2488,  # WORLD_WP_LAST
+        2504,  # WORLD_BOOM_RATE_CMD
+        2520,  # WORLD_DRUM_ON_CMD
+        2536,  # WORLD_JACK_DOWN_CMD
+        2552,  # WORLD_LEFT_TREAD_CMD
+        2568,  # WORLD_RIGHT_TREAD_CMD
+        2584,  # WORLD_PAN_FLOAT_CMD
+        2600,  # WORLD_GATHER_ON_CMD
+        2616,  # WORLD_CONVEYOR_ON_CMD
+        3032,  # OVERRIDE_TAIL_REQUEST
+        3296,  # OVERRIDE_BOOM_RATE_CMD
+        3320,  # OVERRIDE_DRUM_ON_CMD
+        3344,  # OVERRIDE_JACK_DOWN_CMD
+        3368,  # OVERRIDE_LEFT_TREAD_CMD
+        3392,  # OVERRIDE_RIGHT_TREAD_CMD
+        3416,  # OVERRIDE_PAN_FLOAT_CMD
+        3440,  # OVERRIDE_GATHER_ON_CMD
+        3464,  # OVERRIDE_CONVEYOR_ON_CMD
+        5384,  # TIME_PP
+    ),
+}
 # The modules that write each world field (a stand-in writes in its controller's place), for
 # `ctl force`: forcing a field takes it from them, which needs override on each.
 WORLD_WRITERS: dict[str, tuple[str, ...]] = {

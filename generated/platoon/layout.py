@@ -771,6 +771,164 @@ ACTUATED_BY = {
     "bravo_steer": "pb",
     "bravo_pan_cmd": "pb",
 }
+# The records each process writes into its own block (their offsets, in layout order): what a
+# network transport looks at after each of its cycles to send it (rcs/transport.py); the
+# rest of its block (an operator's tool writing there) it looks at every slow push.
+WRITES: dict[str, tuple[int, ...]] = {
+    "command": (
+        80,  # PROCESS_COMMAND
+        632,  # PL_COMMAND
+        664,  # PL_STATUS
+        728,  # PL_MODE
+        744,  # PL_PERF
+        792,  # SEC_COMMAND
+        824,  # SEC_STATUS
+        888,  # SEC_MODE
+        904,  # SEC_PERF
+        952,  # LDR_MODE
+        968,  # LDR_PERF
+        1016,  # LDR_PL_COMMAND
+        1048,  # LDR_PL_STATUS
+        1136,  # ALPHA_COMMAND
+        2056,  # BRAVO_COMMAND
+        3072,  # WORLD_ALPHA_THROTTLE
+        3088,  # WORLD_ALPHA_BRAKE
+        3104,  # WORLD_ALPHA_STEER
+        3120,  # WORLD_ALPHA_PAN_CMD
+        3248,  # WORLD_BRAVO_THROTTLE
+        3264,  # WORLD_BRAVO_BRAKE
+        3280,  # WORLD_BRAVO_STEER
+        3296,  # WORLD_BRAVO_PAN_CMD
+        3536,  # OVERRIDE_ALPHA_THROTTLE
+        3560,  # OVERRIDE_ALPHA_BRAKE
+        3584,  # OVERRIDE_ALPHA_STEER
+        3608,  # OVERRIDE_ALPHA_PAN_CMD
+        3800,  # OVERRIDE_BRAVO_THROTTLE
+        3824,  # OVERRIDE_BRAVO_BRAKE
+        3848,  # OVERRIDE_BRAVO_STEER
+        3872,  # OVERRIDE_BRAVO_PAN_CMD
+        3992,  # TIME_PL
+        4064,  # TIME_SEC
+    ),
+    "pa": (
+        264,  # PROCESS_PA
+        1168,  # ALPHA_STATUS
+        1224,  # ALPHA_MODE
+        1240,  # ALPHA_PERF
+        1288,  # ALPHA_LOCO_COMMAND
+        1320,  # ALPHA_LOCO_STATUS
+        1360,  # ALPHA_LOCO_MODE
+        1376,  # ALPHA_LOCO_PERF
+        1424,  # ALPHA_DRIVE_COMMAND
+        1456,  # ALPHA_DRIVE_STATUS
+        1488,  # ALPHA_DRIVE_MODE
+        1504,  # ALPHA_DRIVE_PERF
+        1552,  # ALPHA_RSTA_COMMAND
+        1576,  # ALPHA_RSTA_STATUS
+        1624,  # ALPHA_RSTA_MODE
+        1640,  # ALPHA_RSTA_PERF
+        1688,  # ALPHA_PAN_COMMAND
+        1720,  # ALPHA_PAN_STATUS
+        1752,  # ALPHA_PAN_MODE
+        1768,  # ALPHA_PAN_PERF
+        1816,  # ALPHA_MOTION_COMMAND
+        1840,  # ALPHA_MOTION_STATUS
+        1872,  # ALPHA_MOTION_MODE
+        1888,  # ALPHA_MOTION_PERF
+        1936,  # ALPHA_SENSOR_COMMAND
+        1960,  # ALPHA_SENSOR_STATUS
+        1992,  # ALPHA_SENSOR_MODE
+        2008,  # ALPHA_SENSOR_PERF
+        3024,  # WORLD_ALPHA_X
+        3040,  # WORLD_ALPHA_Y
+        3056,  # WORLD_ALPHA_SPEED
+        3072,  # WORLD_ALPHA_THROTTLE
+        3088,  # WORLD_ALPHA_BRAKE
+        3104,  # WORLD_ALPHA_STEER
+        3120,  # WORLD_ALPHA_PAN_CMD
+        3136,  # WORLD_ALPHA_PAN
+        3152,  # WORLD_ALPHA_CONTACT
+        3168,  # WORLD_ALPHA_CONTACT_X
+        3248,  # WORLD_BRAVO_THROTTLE
+        3264,  # WORLD_BRAVO_BRAKE
+        3280,  # WORLD_BRAVO_STEER
+        3296,  # WORLD_BRAVO_PAN_CMD
+        3536,  # OVERRIDE_ALPHA_THROTTLE
+        3560,  # OVERRIDE_ALPHA_BRAKE
+        3584,  # OVERRIDE_ALPHA_STEER
+        3608,  # OVERRIDE_ALPHA_PAN_CMD
+        3800,  # OVERRIDE_BRAVO_THROTTLE
+        3824,  # OVERRIDE_BRAVO_BRAKE
+        3848,  # OVERRIDE_BRAVO_STEER
+        3872,  # OVERRIDE_BRAVO_PAN_CMD
+        4176,  # TIME_ALPHA
+        4224,  # TIME_ALPHA_LOCO
+        4296,  # TIME_ALPHA_DRIVE
+        4336,  # TIME_ALPHA_RSTA
+        4400,  # TIME_ALPHA_PAN
+        4448,  # TIME_ALPHA_MOTION
+        4488,  # TIME_ALPHA_SENSOR
+    ),
+    "pb": (
+        448,  # PROCESS_PB
+        2088,  # BRAVO_STATUS
+        2144,  # BRAVO_MODE
+        2160,  # BRAVO_PERF
+        2208,  # BRAVO_LOCO_COMMAND
+        2240,  # BRAVO_LOCO_STATUS
+        2280,  # BRAVO_LOCO_MODE
+        2296,  # BRAVO_LOCO_PERF
+        2344,  # BRAVO_DRIVE_COMMAND
+        2376,  # BRAVO_DRIVE_STATUS
+        2408,  # BRAVO_DRIVE_MODE
+        2424,  # BRAVO_DRIVE_PERF
+        2472,  # BRAVO_RSTA_COMMAND
+        2496,  # BRAVO_RSTA_STATUS
+        2544,  # BRAVO_RSTA_MODE
+        2560,  # BRAVO_RSTA_PERF
+        2608,  # BRAVO_PAN_COMMAND
+        2640,  # BRAVO_PAN_STATUS
+        2672,  # BRAVO_PAN_MODE
+        2688,  # BRAVO_PAN_PERF
+        2736,  # BRAVO_MOTION_COMMAND
+        2760,  # BRAVO_MOTION_STATUS
+        2792,  # BRAVO_MOTION_MODE
+        2808,  # BRAVO_MOTION_PERF
+        2856,  # BRAVO_SENSOR_COMMAND
+        2880,  # BRAVO_SENSOR_STATUS
+        2912,  # BRAVO_SENSOR_MODE
+        2928,  # BRAVO_SENSOR_PERF
+        3072,  # WORLD_ALPHA_THROTTLE
+        3088,  # WORLD_ALPHA_BRAKE
+        3104,  # WORLD_ALPHA_STEER
+        3120,  # WORLD_ALPHA_PAN_CMD
+        3200,  # WORLD_BRAVO_X
+        3216,  # WORLD_BRAVO_Y
+        3232,  # WORLD_BRAVO_SPEED
+        3248,  # WORLD_BRAVO_THROTTLE
+        3264,  # WORLD_BRAVO_BRAKE
+        3280,  # WORLD_BRAVO_STEER
+        3296,  # WORLD_BRAVO_PAN_CMD
+        3312,  # WORLD_BRAVO_PAN
+        3328,  # WORLD_BRAVO_CONTACT
+        3344,  # WORLD_BRAVO_CONTACT_X
+        3536,  # OVERRIDE_ALPHA_THROTTLE
+        3560,  # OVERRIDE_ALPHA_BRAKE
+        3584,  # OVERRIDE_ALPHA_STEER
+        3608,  # OVERRIDE_ALPHA_PAN_CMD
+        3800,  # OVERRIDE_BRAVO_THROTTLE
+        3824,  # OVERRIDE_BRAVO_BRAKE
+        3848,  # OVERRIDE_BRAVO_STEER
+        3872,  # OVERRIDE_BRAVO_PAN_CMD
+        4528,  # TIME_BRAVO
+        4576,  # TIME_BRAVO_LOCO
+        4648,  # TIME_BRAVO_DRIVE
+        4688,  # TIME_BRAVO_RSTA
+        4752,  # TIME_BRAVO_PAN
+        4800,  # TIME_BRAVO_MOTION
+        4840,  # TIME_BRAVO_SENSOR
+    ),
+}
 # The fields that hold an enumeration's value, by (module, or "" for the world; field): the
 # value names, indexed by the code the field holds, for traces, displays and `ctl send`.
 ENUMS: dict[tuple[str, str], tuple[str, ...]] = {

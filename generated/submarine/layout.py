@@ -864,6 +864,141 @@ OVERRIDE = {
 SAFE_VALUES: dict[str, object] = {}
 # The process whose modules write each actuator.
 ACTUATED_BY = {}
+# The records each process writes into its own block (their offsets, in layout order): what a
+# network transport looks at after each of its cycles to send it (rcs/transport.py); the
+# rest of its block (an operator's tool writing there) it looks at every slow push.
+WRITES: dict[str, tuple[int, ...]] = {
+    "ship": (
+        80,  # PROCESS_SHIP
+        264,  # CC_COMMAND
+        288,  # CC_STATUS
+        352,  # CC_MODE
+        368,  # CC_PERF
+        416,  # SM_COMMAND
+        456,  # SM_STATUS
+        496,  # SM_MODE
+        512,  # SM_PERF
+        560,  # EC_COMMAND
+        584,  # EC_STATUS
+        616,  # EC_MODE
+        632,  # EC_PERF
+        680,  # HELM_COMMAND
+        736,  # HELM_STATUS
+        784,  # HELM_MODE
+        800,  # HELM_PERF
+        848,  # RUDDER_COMMAND
+        880,  # RUDDER_STATUS
+        912,  # RUDDER_MODE
+        928,  # RUDDER_PERF
+        976,  # PROP_COMMAND
+        1000,  # PROP_STATUS
+        1040,  # PROP_MODE
+        1056,  # PROP_PERF
+        1104,  # EOOW_MODE
+        1120,  # EOOW_PERF
+        1168,  # EOOW_CC_COMMAND
+        1192,  # EOOW_CC_STATUS
+        1248,  # EOOW_PROP_COMMAND
+        1272,  # EOOW_PROP_STATUS
+        1328,  # OOD_MODE
+        1344,  # OOD_PERF
+        1392,  # OOD_SM_COMMAND
+        1432,  # OOD_SM_STATUS
+        1504,  # RUDDER_SIM_COMMAND
+        1528,  # RUDDER_SIM_STATUS
+        1560,  # RUDDER_SIM_MODE
+        1576,  # RUDDER_SIM_PERF
+        1624,  # SHIP_COMMAND
+        1648,  # SHIP_STATUS
+        1680,  # SHIP_MODE
+        1696,  # SHIP_PERF
+        1744,  # SONAR_COMMAND
+        1768,  # SONAR_STATUS
+        1800,  # SONAR_MODE
+        1816,  # SONAR_PERF
+        1864,  # SEA_COMMAND
+        1888,  # SEA_STATUS
+        1920,  # SEA_MODE
+        1936,  # SEA_PERF
+        1984,  # CREW_COMMAND
+        2008,  # CREW_STATUS
+        2040,  # CREW_MODE
+        2056,  # CREW_PERF
+        2104,  # ATMOSPHERE_COMMAND
+        2128,  # ATMOSPHERE_STATUS
+        2160,  # ATMOSPHERE_MODE
+        2176,  # ATMOSPHERE_PERF
+        2224,  # WORLD_SPEED_CMD
+        2240,  # WORLD_DEPTH_CMD
+        2256,  # WORLD_HAVEN_X
+        2272,  # WORLD_HAVEN_Y
+        2288,  # WORLD_PERISCOPE_RAISED
+        2304,  # WORLD_ANNOUNCEMENT
+        2360,  # WORLD_GENERAL_ALARM
+        2376,  # WORLD_WATCH
+        2392,  # WORLD_SHAFT
+        2408,  # WORLD_COURSE
+        2424,  # WORLD_BALLAST
+        2440,  # WORLD_PLANES
+        2456,  # WORLD_MBT_BLOWN
+        2472,  # WORLD_VENT_FLOW
+        2488,  # WORLD_POS_X
+        2504,  # WORLD_POS_Y
+        2520,  # WORLD_HEADING
+        2536,  # WORLD_SPEED
+        2552,  # WORLD_DEPTH
+        2568,  # WORLD_DEPTH_GAUGE
+        2584,  # WORLD_BUBBLE
+        2600,  # WORLD_RUDDER_ANGLE
+        2632,  # WORLD_SONAR_00
+        2648,  # WORLD_SONAR_01
+        2664,  # WORLD_SONAR_02
+        2680,  # WORLD_SONAR_03
+        2696,  # WORLD_SONAR_04
+        2712,  # WORLD_SONAR_05
+        2728,  # WORLD_SONAR_06
+        2744,  # WORLD_SONAR_07
+        2760,  # WORLD_SONAR_08
+        2776,  # WORLD_SONAR_09
+        2792,  # WORLD_SONAR_10
+        2808,  # WORLD_SONAR_11
+        2824,  # WORLD_SONAR_12
+        2840,  # WORLD_SONAR_13
+        2856,  # WORLD_CLEARANCE
+        2872,  # WORLD_MIN_CLEARANCE
+        2888,  # WORLD_CONTACT_RANGE
+        2904,  # WORLD_CONTACT_BEARING
+        2936,  # WORLD_BOTTOM_DEPTH
+        2952,  # WORLD_BELOW_KEEL
+        2968,  # WORLD_MIN_BELOW_KEEL
+        2984,  # WORLD_FIRE
+        3000,  # WORLD_SMOKE
+        3016,  # WORLD_O2_PCT
+        3032,  # WORLD_CO2_PCT
+        3048,  # WORLD_VENT_LINEUP
+        3064,  # WORLD_DIESEL_RUNNING
+        3080,  # WORLD_CO_PPM
+        3096,  # WORLD_CO_PPM_FWD
+        3112,  # WORLD_FORWARD_NORMAL
+        3128,  # WORLD_ENGINE_ROOM_CONTAMINATED
+        3144,  # WORLD_LUBE_OIL_PSI
+        3160,  # WORLD_LUBE_OIL_TEMP
+        3176,  # WORLD_PUMPS_FIRE
+        3192,  # WORLD_LUBE_OIL_LOW
+        4680,  # TIME_CC
+        4784,  # TIME_SM
+        4896,  # TIME_EC
+        4944,  # TIME_HELM
+        5016,  # TIME_RUDDER
+        5088,  # TIME_PROP
+        5144,  # TIME_RUDDER_SIM
+        5184,  # TIME_SHIP
+        5224,  # TIME_SONAR
+        5264,  # TIME_SEA
+        5304,  # TIME_CREW
+        5344,  # TIME_ATMOSPHERE
+    ),
+}
 # The fields that hold an enumeration's value, by (module, or "" for the world; field): the
 # value names, indexed by the code the field holds, for traces, displays and `ctl send`.
 ENUMS: dict[tuple[str, str], tuple[str, ...]] = {

@@ -667,6 +667,9 @@ class IRSystem:
     # each actuator world field -> the process whose modules write it (the first by name when
     # several do): who latches it safe when it stops (rcs/override.py)
     actuated_by: dict[str, str] = field(default_factory=dict)
+    # each process -> the buffers it writes into its own block, in layout order: what a
+    # network transport sends from it (rcs/transport.py)
+    writes: dict[str, tuple[Buffer, ...]] = field(default_factory=dict)
     name_span: Span = field(default_factory=lambda: Span("?"))  # where `system:` names it
     # The run settings its hook-state factories read (name, doc); None: not declared (any
     # setting is taken when a controller has a factory, none otherwise)

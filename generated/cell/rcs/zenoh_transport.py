@@ -156,10 +156,18 @@ class ZenohTransport:
         # (`wait`, `hear`) is a token in `_bell`, put after each message that may let it go
         # on: every message, but while `eager` is False (a lockstep process waiting for its
         # step) not another node's push, which waits in the inbox to be applied with the
-        # step (one wake-up a cycle fewer for each other process's push).
+        # step (one wake-up a cycle fewer for each other process's push); and while a wait
+        # names the heartbeats it needs (`awaited`: a lockstep process's records to read, a
+        # coordinator's answers), only the push after which every one of them has been
+        # sent (`beats`: the highest heartbeat each process has sent, as the ends of its
+        # pushes say, kept by Zenoh's thread; only ever raised, so a push's data mistaken
+        # for a beat can wake the thread early, which then waits again, and never keep it
+        # from waking).
         self.inbox: queue.SimpleQueue[tuple[str, str, bytes]] = queue.SimpleQueue()
         self._bell: queue.SimpleQueue[None] = queue.SimpleQueue()
         self.eager = True
+        self.awaited: Mapping[str, int] | None = None
+        self.beats: dict[str, int] = {}
         self.steps: deque[bytes] = deque()
         self.lost: set[str] = set()
         self.joined: set[str] = set()
@@ -230,7 +238,14 @@ class ZenohTransport:
     def _sample(self, sample: Any) -> None:
         key = str(sample.key_expr)[self._cut :]
         if key.startswith(self._pushes):
-            self._arrived("push", key, sample.payload.to_bytes())
+            payload = sample.payload.to_bytes()
+            beats, beat = self.beats, self.mirror.last_beat(payload)
+            if beat is not None and beat[1] > beats.get(beat[0], -1):
+                beats[beat[0]] = beat[1]
+            self.inbox.put(("push", key, payload))
+            awaited = self.awaited  # (the token after the message: see `pull`)
+            if self.eager and (awaited is None or _met(beats, awaited)):
+                self._bell.put(None)
         elif key.startswith(self._steps):
             if self._me is not None:  # (an observer runs no step)
                 self._arrived("step", key[len(self._steps) :], sample.payload.to_bytes())
@@ -239,8 +254,7 @@ class ZenohTransport:
 
     def _arrived(self, kind: str, key: str, payload: bytes) -> None:
         self.inbox.put((kind, key, payload))
-        if self.eager or kind != "push":  # (the token after the message: see `pull`)
-            self._bell.put(None)
+        self._bell.put(None)  # (the token after the message: see `pull`)
 
     def _token(self, sample: Any) -> None:
         parts = str(sample.key_expr).split("/")  # rcs, system, hash-8, _alive, node
@@ -450,8 +464,23 @@ class ZenohTransport:
             )
         self._stepper.put(payload)
 
-    def wait(self, ready: Callable[[], bool], timeout: float | None) -> bool:
-        """Pull until `ready()` holds (True) or `timeout` seconds pass (False)."""
+    def wait(
+        self,
+        ready: Callable[[], bool],
+        timeout: float | None,
+        awaited: Mapping[str, int] | None = None,
+    ) -> bool:
+        """Pull until `ready()` holds (True) or `timeout` seconds pass (False). With
+        `awaited` (process -> heartbeat: what `ready` waits for, besides liveness), a push
+        wakes this thread only once every process named has sent its heartbeat (a lockstep
+        cycle's records in: not woken by each other push before them)."""
+        self.awaited = awaited
+        try:
+            return self._wait(ready, timeout)
+        finally:
+            self.awaited = None
+
+    def _wait(self, ready: Callable[[], bool], timeout: float | None) -> bool:
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             self.pull()
@@ -555,7 +584,7 @@ def serve(
             required = Struct(f"<{len(names)}Q").unpack_from(request, STEP.size)
             me = process.plan.name
             others = [(n, r) for n, r in zip(names, required, strict=True) if n != me]
-            if not transport.wait(_reached(mirror, others), timeout):
+            if not transport.wait(_reached(mirror, others), timeout, dict(others)):
                 missing = [n for n, r in others if mirror.heartbeat(n) < r]
                 return f"the records of {missing} did not arrive within {timeout:g} s"
             process.run_modules(first, last)
@@ -566,6 +595,11 @@ def serve(
     finally:
         process.beat(STOPPED)  # sent as the caller closes the transport
     return None
+
+
+def _met(beats: Mapping[str, int], awaited: Mapping[str, int]) -> bool:
+    """Whether every process `awaited` names has sent (`beats`) the heartbeat it needs."""
+    return all(beats.get(name, -1) >= beat for name, beat in awaited.items())
 
 
 def _reached(mirror: Mirror, others: list[tuple[str, int]]) -> Callable[[], bool]:

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable, Sequence
+from operator import itemgetter
 from struct import Struct
 from types import ModuleType
 from typing import NamedTuple, Protocol
@@ -27,6 +29,7 @@ from .override import mirrored
 
 # Before a record's bytes: the sender's incarnation (random per start).
 EPOCH = Struct("<Q")
+HEAD = Struct("<QQ")  # a message's head: the sender's epoch, the record's sequence word
 # A push (what a node wrote in a cycle) travels as one message: each record as its index in
 # the layout's records (by offset: the same on every node of one layout hash), then its
 # message (EPOCH and the record's bytes, whose size the layout gives).
@@ -180,12 +183,46 @@ class Mirror:
         # times) and is read by people (ctl, the monitor), never by a controller: the
         # pushes of a fast process carry it only when `slow` is asked (zenoh_transport).
         self._fast = tuple(not key.endswith("/perf") for key in ordered)
-        self._runs = range(0, len(ordered), SEQ_RUN)
+        # A process looks, after each cycle, only at the records it writes (the layout's
+        # WRITES, but the performance buffers: those wait for a slow push), their sequence
+        # words in one unpack; the whole block every slow push (an operator's tool on its
+        # host may write any record there). An observer (no WRITES of its own) writes
+        # anything: it looks at everything every push.
+        writes = getattr(layout, "WRITES", {}).get(node)
+        self._mine = None if writes is None else self._written(writes)
+        self._every = tuple(range(len(ordered)))
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
         self.counters = Counters()
+        # each record's index, offset and message size, by key (what `apply` looks up once)
+        self._where = {
+            key: (i, self.records[key].offset, size)
+            for i, (key, size) in enumerate(zip(ordered, self._sizes, strict=True))
+        }
+        self._overrides = {key for key in ordered if key.startswith(f"{OVERRIDE_OWNER}/")}
         self._control = {f"{PROCESS_OWNER}/{p}/control" for p in layout.PROCESSES}
+        # a control record's index in a push -> its process; its size there (`last_beat`)
+        self._beat_index = {
+            self._index[f"{PROCESS_OWNER}/{p}/control"]: p for p in layout.PROCESSES
+        }
+        self._beat_size = INDEX.size + EPOCH.size + PROCESS.size
         self._own = f"{PROCESS_OWNER}/{node}/control"  # only this process writes it
+
+    def _written(self, offsets: tuple[int, ...]) -> tuple[int, ...]:
+        """The indices of the records at `offsets` but the performance buffers; their
+        sequence words' unpack (`_mine_seqs`) and what was sent of them (`_mine_known`)."""
+        index_at = {span[0]: i for i, span in enumerate(self._spans)}
+        mine = tuple(index_at[o] for o in sorted(offsets) if o in index_at)
+        mine = tuple(i for i in mine if self._fast[i])
+        mine_format, at = "<", self._spans[mine[0]][0] if mine else 0
+        self._mine_start = at
+        for i in mine:
+            offset = self._spans[i][0]
+            mine_format += (f"{offset - at}x" if offset > at else "") + "Q"
+            at = offset + SEQ.size
+        self._mine_seqs = Struct(mine_format)
+        self._mine_known = _getter(mine)
+        return mine
 
     def changed(self, everything: bool = False, slow: bool = True) -> list[tuple[str, bytes]]:
         """(key suffix, message) of each record this node wrote since it was last sent (with
@@ -194,13 +231,11 @@ class Mirror:
         control record of cycle N has everything that process wrote up to cycle N. Without
         `slow`, the performance buffers are left for a later push (their latest values
         then): everything else is as above."""
-        buf, epoch = self.block.buf, EPOCH.pack(self.epoch)
-        seqs, known = self._seqs.unpack_from(buf, self._start), self.known
+        buf, epoch, known = self.block.buf, EPOCH.pack(self.epoch), self.known
         keys, spans, owned, control = self._keys, self._spans, self.owned, self._control
         found: list[tuple[str, bytes]] = []
         last_ones: list[tuple[str, bytes]] = []
-        for i in self._candidates(seqs, everything, slow):
-            seq = seqs[i]
+        for i, seq in self._candidates(buf, everything, slow):
             if seq % 2:  # being written (a writer died mid-write): not whole, not sent
                 continue
             start, end = spans[i]
@@ -242,38 +277,49 @@ class Mirror:
         self.counters.malformed += 1
         return None
 
-    def _candidates(self, seqs: tuple[int, ...], everything: bool, slow: bool) -> list[int]:
-        """The indices of the records whose sequence word moved since they were last sent or
-        mirrored (with `everything`, also those whose value this node wrote; without
-        `slow`, not the performance buffers)."""
-        known = self.known
+    def last_beat(self, payload: bytes) -> tuple[str, int] | None:
+        """(process, heartbeat) of the control record a push ends with (a process's push
+        ends with its own, when it beat: `changed`), as sent; None when its last bytes are
+        not one. Constant time, reads nothing but the payload and the layout: any thread
+        (Zenoh's, as the push arrives). A push that does not end with a control record may
+        still look as if it did (its bytes are data): take what this says as a hint."""
+        start = len(payload) - self._beat_size
+        if start < 0:
+            return None
+        process = self._beat_index.get(INDEX.unpack_from(payload, start)[0])
+        if process is None:
+            return None
+        return process, PROCESS.unpack_from(payload, start + INDEX.size + EPOCH.size)[4]
+
+    def _candidates(self, buf: memoryview, everything: bool, slow: bool) -> list[tuple[int, int]]:
+        """(index, sequence word) of the records whose word moved since they were last sent
+        or mirrored (with `everything`, also those whose value this node wrote; without
+        `slow`, not the performance buffers, and of a process only what it writes)."""
+        known, mine = self.known, self._mine
+        if mine is not None and not (slow or everything):
+            words = self._mine_seqs.unpack_from(buf, self._mine_start)
+            was = self._mine_known(known)  # what was sent of them, in the same order
+            return _moved(words, was, mine)
+        seqs = self._seqs.unpack_from(buf, self._start)
         if everything:
             owned, keys = self.owned, self._keys
-            return [i for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
-        # The words compared a run of SEQ_RUN at a time (two list slices compared in C: a
-        # push changes a few of a layout's hundreds of records), one by one only in a run
-        # that differs. (Comparing every word by itself, even in C with map/compress, made
-        # a call per record: 25 of a push's ~60 µs of Python in a hop, at load ~8.)
-        words, fast, found = list(seqs), self._fast, []
-        for a in self._runs:
-            b = a + SEQ_RUN
-            if words[a:b] != known[a:b]:
-                for i in range(a, min(b, len(words))):
-                    if words[i] != known[i] and (slow or fast[i]):
-                        found.append(i)
-        return found
+            return [(i, seq) for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
+        moved = _moved(seqs, known, self._every)
+        if slow:
+            return moved
+        fast = self._fast
+        return [(i, seq) for i, seq in moved if fast[i]]
 
     def apply(self, key: str, payload: bytes, now_ns: int | None = None) -> bool:
         """Mirror one message into the block; False when it is dropped (late, out of
         order, for no record of this layout, or of the wrong size)."""
-        record = self.records.get(key)
+        where = self._where.get(key)
         if key == self._own:  # another node's idea of us (a launcher's DEAD): ours wins
             return False
-        if record is None or len(payload) != EPOCH.size + record.struct.size:
+        if where is None or len(payload) != where[2]:
             self.counters.malformed += 1
             return False
-        epoch = EPOCH.unpack_from(payload, 0)[0]
-        seq = SEQ.unpack_from(payload, EPOCH.size)[0]
+        epoch, seq = HEAD.unpack_from(payload, 0)
         if epoch == self.epoch:  # our own message, looped back
             return False
         previous = self.last.get(key)
@@ -286,13 +332,14 @@ class Mirror:
             return False
         self.last[key] = (epoch, seq)
         if key in self._control:
+            record = self.records[key]
             values = list(record.struct.unpack_from(payload, EPOCH.size))
             # seq, pid, state, watchdog_trips, heartbeat, beat_ns, ...
             values[5] = time.monotonic_ns() if now_ns is None else now_ns
             self._write(key, record, values[1:])
         else:  # its fields' bytes as they came (the same struct, no padding): no unpacking
-            self._copy(key, record, payload)
-        if key.startswith(OVERRIDE_OWNER):  # the flag the generated modules look at
+            self._copy(where, payload)
+        if key in self._overrides:  # the flag the generated modules look at
             mirrored(self.layout, self.block.buf)
         self.owned.discard(key)
         self.counters.applied += 1
@@ -311,14 +358,15 @@ class Mirror:
         self.last.pop(key, None)
         self.counters.lost.append(process)
 
-    def _copy(self, key: str, record: Record, message: bytes) -> None:
-        """A message's record bytes after its sequence word, into the block (seqlock)."""
-        buf, at = self.block.buf, record.offset
-        seq = next_odd(record.seq(buf))
+    def _copy(self, where: tuple[int, int, int], message: bytes) -> None:
+        """A message's record bytes after its sequence word, into the block (seqlock), the
+        record `where` says: its index, offset and message size (`_where`)."""
+        buf, (index, at, size) = self.block.buf, where
+        seq = next_odd(SEQ.unpack_from(buf, at)[0])
         SEQ.pack_into(buf, at, seq)  # odd before any field changes
-        buf[at + SEQ.size : at + record.struct.size] = message[EPOCH.size + SEQ.size :]
+        buf[at + SEQ.size : at + size - EPOCH.size] = message[HEAD.size :]
         SEQ.pack_into(buf, at, seq + 1)
-        self.known[self._index[key]] = seq + 1
+        self.known[index] = seq + 1
 
     def _write(self, key: str, record: Record, values: list[object]) -> None:
         buf = self.block.buf
@@ -336,6 +384,31 @@ class Mirror:
     def state(self, process: str) -> int:
         values = PROCESS.unpack_from(self.block.buf, self.layout.PROCESSES[process].offset)
         return int(values[2])
+
+
+def _moved(
+    words: Sequence[int], was: Sequence[int], indices: Sequence[int]
+) -> list[tuple[int, int]]:
+    """(indices[j], words[j]) for each j where `words` and `was` differ. They are compared
+    a run of SEQ_RUN at a time (two slices compared in C: a push changes a few of a layout's
+    hundreds of records), one by one only in a run that differs. (Comparing every word by
+    itself, even in C with map/compress, made a call per record: 25 of a push's ~60 µs of
+    Python in a hop, at load ~8.)"""
+    found, count = [], len(words)
+    for a in range(0, count, SEQ_RUN):
+        b = a + SEQ_RUN
+        if words[a:b] != was[a:b]:
+            for j in range(a, min(b, count)):
+                if words[j] != was[j]:
+                    found.append((indices[j], words[j]))
+    return found
+
+
+def _getter(indices: tuple[int, ...]) -> Callable[[Sequence[int]], tuple[int, ...]]:
+    """A function of a list: its items at `indices`, as a tuple (in C)."""
+    if len(indices) > 1:
+        return itemgetter(*indices)
+    return lambda items: tuple(items[i] for i in indices)
 
 
 def check_endpoint(text: str) -> str:

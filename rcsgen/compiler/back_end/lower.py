@@ -137,6 +137,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
             ir.IRRequest(r.name, r.doc, r.by.value, r.open_while.value, *r.answer.value.split("."))
             for r in spec.operators.requests.values()
         ),
+        writes=module_io.process_writes(processes, controllers, layout, placement, world, devices),
         actuated_by={
             f.name: min(placement.world_writers[f.name])
             for f in world

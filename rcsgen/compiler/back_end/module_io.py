@@ -15,6 +15,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from ...runtime.contract import MODE_FIELDS, PERF_FIELDS, STATUS_FIELDS, field_names
+from ...runtime.io_points import Device
 from .. import ir
 from ..checks import naming
 from ..checks.tables import RuleId
@@ -367,3 +368,44 @@ def operator_io(c: ir.IRController) -> ir.ModuleIO:
         if c.results:  # its status and answer records' own structs, with the results
             imports += [f"{own}_{client.upper()}_{part}" for part in ("STATUS", "ANSWER")]
     return ir.ModuleIO(own=own, imports=tuple(sorted(imports)))
+
+
+def process_writes(
+    processes: Iterable[ir.IRProcess],
+    controllers: Iterable[ir.IRController],
+    layout: ir.Layout,
+    placement: Placement,
+    world: Iterable[ir.IRWorldField],
+    devices: Iterable[Device] = (),
+) -> dict[str, tuple[ir.Buffer, ...]]:
+    """The buffers each process writes into its own block, in layout order: what a network
+    transport looks at after each of its cycles (rcs/transport.py `Mirror`). Its control
+    record; for each module it runs (a stand-in too) its status, performance, mode (the
+    loop sets `simulate` at start), time in state, its subordinates' commands and the world
+    fields it writes; a root's command (the loop's INIT and HALT); an operator module's
+    channels' status; its I/O devices' points; and every actuator with its override record
+    (a process that loses another latches them safe: rcs/loop.py `react`)."""
+    controllers = list(controllers)
+    by_name = layout.world_by_name
+    overrides = {b.fields[1].name: b for b in layout.override_fields}
+    actuators = [f.name for f in world if f.actuator]
+    latched = [b for name in actuators for b in (by_name[name], overrides[name])]
+    found: dict[str, list[ir.Buffer]] = {}
+    for p in processes:
+        mine = found[p.name] = [layout.processes[p.name], *latched]
+        mine += [layout.modules[r].command for r in p.roots if r in layout.modules]
+        mine += [by_name[point.field] for d in devices if d.process == p.name for point in d.points]
+    for c in controllers:
+        mine = found[placement.process_of[c.name]]
+        if c.is_operator:
+            own = layout.operators[c.name]
+            mine += [own.mode, own.perf, *(ch.status for ch in own.channels.values())]
+            continue
+        buffers = layout.modules[c.buffers]
+        mine += [buffers.status, buffers.perf, buffers.mode, layout.state_time[c.name]]
+        mine += [layout.handshake(s.name, c.buffers)[0] for s in c.subordinates]
+        mine += [by_name[f.name] for f in c.world_writes]
+    return {
+        name: tuple(sorted({b.offset: b for b in buffers}.values(), key=lambda b: b.offset))
+        for name, buffers in found.items()
+    }

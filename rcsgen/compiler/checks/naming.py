@@ -182,6 +182,7 @@ LAYOUT_NAMES = frozenset(
         "WORLD_WRITERS",
         "GROUND_TRUTH",
         "ACTUATED_BY",
+        "WRITES",
         "SAFE_VALUES",
         "OVERRIDE",
         "OVERRIDES",

@@ -946,7 +946,7 @@ class NetworkCoordinator:
                 requests[name] = step_request(first, last, end, [targets[n] for n in self.names])
                 targets[name] = self.reached[name] + 1
             net.send_steps(requests)  # one message a cycle: each process takes its own
-            if not net.wait(_answered(mirror, net.lost, targets), self.timeout):
+            if not net.wait(_answered(mirror, net.lost, targets), self.timeout, targets):
                 late = [n for n in self.names if mirror.heartbeat(n) < targets[n]]
                 raise ProcessLost(f"process(es) {late} did not answer within {self.timeout:g} s")
             gone = sorted(net.lost & set(self.names))
