@@ -562,7 +562,8 @@ def _os_problem(exc: OSError, what: str) -> PathProblem:
 
 _LINK_HINT = "fix or remove the symbolic link"
 _REGULAR_HINT = "rcsgen reads only regular files"
-_NONBLOCK = getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
+# (no O_CLOEXEC: os.open makes every descriptor non-inheritable itself, PEP 446)
+_NONBLOCK = getattr(os, "O_NONBLOCK", 0)
 
 
 def path_problem(path: pathlib.Path, want: str = "file") -> PathProblem | None:
