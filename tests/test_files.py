@@ -440,3 +440,25 @@ def test_unwritable_parent_of_a_new_output_directory_is_e306(system: Path) -> No
         "locked:1:1: error[E306]: cannot write in `locked`: permission denied (read-only?)"
     ]
     assert list(parent.iterdir()) == []
+
+
+def test_a_system_at_the_depth_bound_is_found_and_one_level_deeper_is_not(
+    system: Path,
+) -> None:
+    """The bound counts directories: a system MAX_DIR_DEPTH levels below the path given is
+    still found (and valid); one level further, the search stops there with E014."""
+    from rcsgen.compiler.frontend import MAX_DIR_DEPTH
+
+    at_bound = system.parent.joinpath("deep", *["d"] * MAX_DIR_DEPTH)
+    shutil.copytree(system, at_bound)
+    result = rcsgen("validate", "deep")
+    assert (result.exit_code, errors(result.output)) == (0, []), result.output
+    (at_bound / "d").mkdir()
+    for path in [p for p in at_bound.iterdir() if p.name != "d"]:
+        path.rename(at_bound / "d" / path.name)
+    result = rcsgen("validate", "deep")
+    shown = "deep/" + "/".join(["d"] * MAX_DIR_DEPTH)
+    assert errors(result.output) == [
+        f"{shown}:1:1: error[E014]: directories nest more than {MAX_DIR_DEPTH} levels below "
+        "`deep`; not searched further"
+    ]

@@ -391,3 +391,41 @@ def test_an_action_given_in_a_list_is_checked_where_it_is_written(tmp_path):
     diags = compile_paths([system]).diagnostics
     line = bad.splitlines().index(next(x for x in bad.splitlines() if "sett" in x)) + 1
     assert [(d.code, d.span.line) for d in diags.errors] == [("S006", line)]
+
+
+def test_a_controller_fragment_hiding_a_broken_shared_one_names_the_file_alone(
+    tmp_path: Path,
+) -> None:
+    """A shared fragment found wrong (E269) has no span to show: E270 names its file alone."""
+    shared = "fragments:\n  move_and_wait: {states: 3}\n"
+    directory = system(tmp_path, with_fragment(), shared=shared)
+    found = [f.replace(f"{directory.resolve()}/", "") for f in diagnostics(directory)]
+    assert found == [
+        "2:E269:fragment `move_and_wait` needs `states:`, a mapping of state -> rules | ",
+        "7:E270:fragment `move_and_wait` is declared here and in fragments.yaml | "
+        "rename one: a controller's fragment may not hide a shared one "
+        "(in fragment `move_and_wait`, used at top.yaml:28:17 (GO.S0))",
+    ]
+
+
+def test_a_finding_in_a_fragment_names_only_the_use_of_its_command_and_state(
+    tmp_path: Path,
+) -> None:
+    """A later stage's finding about one expansion's rule (its command and state known)
+    names the use that made that state, not every use of the fragment."""
+    fragment = FRAGMENT + "        - when: sub.status == DONE\n          do: [report: DONE]\n"
+    uses = (
+        "      S0: {use: move_and_wait, with: {x: 1.0, limit: 3 s, then: S1}}\n"
+        "      S1: {use: move_and_wait, with: {x: 2.0, limit: 3 s, then: ARRIVED}}\n"
+        "      ARRIVED:\n        - do: [report: DONE]\n"
+    )
+    directory = system(tmp_path, with_fragment(uses, fragment))
+    found = [f.replace(f"{directory.resolve()}/", "") for f in diagnostics(directory)]
+    assert [f.split(" | ")[1].rsplit(" (in ", 1)[1] for f in found] == [
+        "fragment `move_and_wait`, used at top.yaml:30:17 (GO.S0))",
+        "fragment `move_and_wait`, used at top.yaml:31:17 (GO.S1))",
+    ]
+    assert [f.split(":")[:2] + [f.split(" ")[4]] for f in found] == [
+        ["24", "W512", "S0_WAIT"],
+        ["24", "W512", "S1_WAIT"],
+    ]

@@ -108,3 +108,34 @@ def test_a_bool_constant_takes_true_or_false_and_its_default(fleet: Path) -> Non
         "E905",
         "`ARMED` of template `cart` is true or false, not 1",
     )
+
+
+def test_a_constant_of_the_wrong_kind_is_told_in_words(fleet: Path) -> None:
+    """A constant of the wrong kind is told what it takes, as a user reads it: an int
+    constant `an integer`, a float one `a number`, in an instance (E905) as in a default
+    (E907)."""
+    edit(fleet / "cart" / "template.yaml", "default: 3}", "default: 3.5}")
+    edit(fleet / "system.yaml", "{SPEED: 1.0}", "{SPEED: 1.0, LIMIT: 2.5}")
+    edit(fleet / "system.yaml", "{SPEED: 2.0}", "{SPEED: true}")
+    found = compile_paths([fleet], analyse=False).diagnostics.errors
+    assert [(d.code, d.message) for d in found] == [
+        ("E907", "the default of `LIMIT` is not an integer: 3.5"),
+    ]
+    edit(fleet / "cart" / "template.yaml", "default: 3.5}", "default: 3}")
+    found = compile_paths([fleet], analyse=False).diagnostics.errors
+    assert [(d.code, d.message) for d in found] == [
+        ("E905", "`LIMIT` of template `cart` is an integer, not 2.5"),
+        ("E905", "`SPEED` of template `cart` is a number, not True"),
+    ]
+
+
+def test_each_misnamed_controller_file_of_a_template_is_reported(fleet: Path) -> None:
+    """Two controller files of a template named unlike their controllers: E222 for each, not
+    the first alone."""
+    for name in ("cart", "wheel"):
+        (fleet / "cart" / f"{name}.yaml").rename(fleet / "cart" / f"{name}_x.yaml")
+    found = compile_paths([fleet], analyse=False).diagnostics.errors
+    assert [(d.code, d.message) for d in found] == [
+        ("E222", "controller `cart` is declared in `cart_x.yaml`"),
+        ("E222", "controller `wheel` is declared in `wheel_x.yaml`"),
+    ]

@@ -248,6 +248,18 @@ def test_every_explicit_tag_is_rejected(tagged: str):
     assert located(diagnostics(f"v: {tagged}\n")) == [("E005", 1, 4)]
 
 
+def test_a_tagged_key_is_reported_once_as_a_tag() -> None:
+    """`!!str 1: x`: the tag is the one mistake told; the key it makes (1, not a string) is
+    not reported again as E003."""
+    [diag] = diagnostics("!!str 1: x\n")
+    assert (diag.code, diag.span, diag.message) == (
+        "E005",
+        Span(PATH, 1, 1),
+        "tags are not allowed",
+    )
+    assert diag.hint == "remove `!!str`; a spec is plain data and no tag is ever constructed"
+
+
 def test_anchors_aliases_and_merge_keys_are_rejected():
     text = "base: &b {x: 1}\ncopy: *b\nmerged:\n  <<: {y: 2}\nquoted:\n  '<<': fine\n*b : 3\n"
     diags = diagnostics(text)  # an alias used as a key is not also reported as E003

@@ -557,3 +557,47 @@ def test_the_fast_check_agrees_with_jsonschema_on_mutated_examples():
         assert fast_check(kind)(mutant) is expected, (kind, where, last, operation)
         verdicts[expected] += 1
     assert min(verdicts.values()) >= 30, verdicts  # both verdicts exercised
+
+
+def test_each_keyword_s_failure_is_told_in_its_own_words():
+    """One document with a mistake of each kind the schema finds (a required key, an unknown
+    key, a type, a pattern, an enum, a minimum, a minimum of items, a `const` of an if/then):
+    each is told by its own code and sentence, never jsonschema's words."""
+    diags = check("""\
+        controller: Co
+        title: 3
+        subordinate: [cr]
+        locals:
+          n: {type: flaot, initial: 0}
+          e: {type: enum, values: [], initial: A}
+          s: {type: str, size: 0, initial: ""}
+          i: {type: int, values: [A], initial: 0}
+        commands:
+          GO:
+            doc: no states
+          STOP:
+            states:
+              S0: [{do: [{report: FINISHED}]}]
+        """)
+    assert [(d.code, d.span.line, d.span.col, d.message) for d in diags] == [
+        (
+            "S004",
+            1,
+            13,
+            "`Co` is not a valid controller mnemonic: controller mnemonics are "
+            "lower_case identifiers",
+        ),
+        ("S003", 2, 8, "`title`: expected a string, got an integer `3`"),
+        ("S002", 3, 1, "unknown key `subordinate`"),
+        (
+            "S005",
+            5,
+            13,
+            "`flaot` is not a valid type: expected `bool`, `int`, `float`, `enum` or `str`",
+        ),
+        ("S005", 6, 27, "`values`: needs at least one item, got none"),
+        ("S005", 7, 24, "`size`: must be at least 1, got 0"),
+        ("S005", 8, 13, "`int` is not a valid value: expected `enum`"),
+        ("S001", 11, 5, "missing required key `states`"),
+        ("S005", 14, 27, "`FINISHED` is not a valid report status: expected `DONE` or `ERROR`"),
+    ]
