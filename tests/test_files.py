@@ -446,7 +446,8 @@ def test_a_system_at_the_depth_bound_is_found_and_one_level_deeper_is_not(
     system: Path,
 ) -> None:
     """The bound counts directories: a system MAX_DIR_DEPTH levels below the path given is
-    still found (and valid); one level further, the search stops there with E014."""
+    still found (and valid); one level further, the search stops there with E014 and goes on
+    with the directories beside it."""
     from rcsgen.compiler.frontend import MAX_DIR_DEPTH
 
     at_bound = system.parent.joinpath("deep", *["d"] * MAX_DIR_DEPTH)
@@ -456,9 +457,12 @@ def test_a_system_at_the_depth_bound_is_found_and_one_level_deeper_is_not(
     (at_bound / "d").mkdir()
     for path in [p for p in at_bound.iterdir() if p.name != "d"]:
         path.rename(at_bound / "d" / path.name)
+    (system.parent / "deep" / "z").mkdir()  # searched after the bound was met
+    (system.parent / "deep" / "z" / "system.yaml").write_text("system: [\n")
     result = rcsgen("validate", "deep")
     shown = "deep/" + "/".join(["d"] * MAX_DIR_DEPTH)
     assert errors(result.output) == [
         f"{shown}:1:1: error[E014]: directories nest more than {MAX_DIR_DEPTH} levels below "
-        "`deep`; not searched further"
+        "`deep`; not searched further",
+        "deep/z/system.yaml:2:1: error[E001]: expected the node content, but found '<stream end>'",
     ]

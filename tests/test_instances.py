@@ -139,3 +139,61 @@ def test_each_misnamed_controller_file_of_a_template_is_reported(fleet: Path) ->
         ("E222", "controller `cart` is declared in `cart_x.yaml`"),
         ("E222", "controller `wheel` is declared in `wheel_x.yaml`"),
     ]
+
+
+def test_a_template_s_finding_names_its_instances_by_subject_or_quoted_module() -> None:
+    """`annotate` in process (no build): a finding in a template's file names the instances
+    it was found in, by its subject's controller, else by a module quoted in its message (at
+    most three named); one outside the template's directory, or from index `first` back, or
+    naming no instance's module is left as it is. Acknowledged findings are named too."""
+    from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span, Subject
+    from rcsgen.compiler.front_end.instances import Instance, Template, annotate
+    from rcsgen.compiler.front_end.loader import LocDict
+
+    at = Span("fleet/cart/template.yaml", 1, 1)
+    cart = Template(
+        "cart", Path("fleet/cart"), at, "Cart", "cart", {}, LocDict(at), {}, {}, [], {}, {}
+    )
+    made = [
+        Instance(
+            f"c{n}",
+            cart,
+            Span("fleet/system.yaml", 10 + n, 3),
+            "",
+            {},
+            {},
+            {"cart": f"c{n}", "wheel": f"c{n}_wheel"},
+        )
+        for n in range(1, 6)
+    ]
+    wheel = Span("fleet/cart/wheel.yaml", 14, 9)
+    diags = Diagnostics()
+    diags.error(wheel, "E204", "unknown command `c9_wheel.GO`", "seen before index first")
+    diags.warning(
+        wheel,
+        "W503",
+        "this state can wait forever",
+        "add a timeout",
+        Subject("c2_wheel", "GO", "S0"),
+    )
+    diags.error(wheel, "E204", "`c1_wheel.MOVEE` and `c3.GO` are not commands")
+    diags.error(wheel, "E204", "`c1_wheel.MOVEE`, `c2.X`, `c3.Y`, `c4.Z`: not commands")
+    diags.error(wheel, "E204", "unknown command `c9_wheel.GO`", "no instance's module")
+    diags.error(Span("fleet/boss.yaml", 3, 1), "E204", "`c1.GO` is not a command", "elsewhere")
+    diags.error(Span("wheel.yaml", 3, 1), "E204", "`c1.GO` is not a command", "no directory")
+    diags.error(Span("cart/wheel.yaml", 3, 1), "E204", "`c4.GO` is not a command")
+    diags.acknowledge(Diagnostic(wheel, "W503", "acknowledged", "", Subject("c5")), "why")
+    annotate(diags, made, 1)
+    assert [d.hint for d in [*diags.items, *diags.acknowledged]] == [
+        "seen before index first",
+        "add a timeout (in instance `c2` (fleet/system.yaml:12:3) of template `cart`)",
+        "in instance `c1` (fleet/system.yaml:11:3), instance `c3` (fleet/system.yaml:13:3) "
+        "of template `cart`",
+        "in instance `c1` (fleet/system.yaml:11:3), instance `c2` (fleet/system.yaml:12:3), "
+        "instance `c3` (fleet/system.yaml:13:3) of template `cart`",
+        "no instance's module",
+        "elsewhere",
+        "no directory",
+        "in instance `c4` (fleet/system.yaml:14:3) of template `cart`",
+        "in instance `c5` (fleet/system.yaml:15:3) of template `cart`",
+    ]
