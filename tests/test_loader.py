@@ -476,3 +476,22 @@ def test_a_path_is_shown_relative_inside_the_working_directory_and_whole_outside
     outside = (tmp_path / "elsewhere" / "x.yaml").resolve()
     assert display_path(tmp_path / "elsewhere" / "x.yaml") == outside.as_posix()
     assert display_path(Path("../elsewhere/x.yaml")) == outside.as_posix()
+
+
+def test_a_character_of_a_quoted_or_block_scalar_is_found_where_it_is_written() -> None:
+    """`char_span` steps over what quoting adds: a single-quoted scalar's opening quote and
+    its doubled quotes, a double-quoted one's escapes, a block's indicator line (its `-` is
+    not the text's); a whitespace character or one past the end is just after the
+    character before it."""
+    text = "b: '''q'' == r'\nc: \"\\\"q\\\" == r\"\nd: |-\n  -p ==\n  q\ne: >-\n  -s\n  t\n"
+    data = load_text(text, PATH)
+
+    def columns(key: str) -> list[tuple[int, int]]:
+        value = data[key]
+        spans = [loader_module.char_span(value, value, i) for i in range(len(value) + 1)]
+        return [(span.line, span.col) for span in spans if span is not None]
+
+    assert columns("b") == [(1, c) for c in (5, 7, 8, 9, 11, 12, 13, 14, 15)]
+    assert columns("c") == [(2, c) for c in (6, 7, 9, 10, 11, 12, 13, 14, 15)]
+    assert columns("d") == [(4, 3), (4, 4), (4, 5), (4, 6), (4, 7), (4, 8), (5, 3), (5, 4)]
+    assert columns("e") == [(7, 3), (7, 4), (7, 5), (8, 3), (8, 4)]

@@ -5,8 +5,15 @@ from __future__ import annotations
 
 import textwrap
 
+from rcsgen.compiler.diagnostics import Span
 from rcsgen.compiler.front_end.loader import load_text
-from rcsgen.compiler.front_end.model import ControllerSpec, build_controller
+from rcsgen.compiler.front_end.model import (
+    ControllerSpec,
+    Located,
+    build_controller,
+    build_io,
+    build_operators,
+)
 
 
 def controller(text: str) -> ControllerSpec:
@@ -43,3 +50,33 @@ def test_what_a_controller_leaves_out_is_empty_not_made_up() -> None:
     ]
     assert (co.doc, go.doc, go.states["S0"].rules[0].doc) == ("", "", "")
     assert co.hooks_state_on_restart == "refuse"
+
+
+SYSTEM = """\
+    system: s
+    title: S
+    cycle_period: 0.1
+    processes:
+      p: {modules: [co]}
+      q: {modules: [other]}
+    operators:
+      segment_group: rcs
+    io:
+      plc:
+        protocol: modbus_tcp
+        address: 127.0.0.1:5020
+        timeout: 0.5
+        process: q
+        points:
+          on_cmd: {coil: 0}
+    """
+
+
+def test_a_device_s_process_and_the_segment_group_are_kept_where_written() -> None:
+    """The optional `process:` of an io device and `operators: {segment_group:}` reach the
+    model with their values and where they are written (a later check points there)."""
+    data = load_text(textwrap.dedent(SYSTEM), "system.yaml")
+    top = Span("system.yaml", 1, 1)
+    (plc,) = build_io(data, top).values()
+    assert plc.process == Located("q", Span("system.yaml", 14, 14))
+    assert build_operators(data, top).segment_group == Located("rcs", Span("system.yaml", 8, 18))
