@@ -322,6 +322,19 @@ def test_more_than_one_document_is_rejected(text: str, line: int):
     assert located(diagnostics(text)) == [("E009", line, 1)]
 
 
+def test_nothing_after_a_second_document_start_is_read() -> None:
+    """After E009 the rest of the stream is not read: what is wrong there (a tag, a
+    duplicate key, a syntax error) is not reported on top of it."""
+    text = "a: 1\n---\nb: !!str x\nb: 2\nc: [\n"
+    [diag] = diagnostics(text)
+    assert (diag.code, diag.span, diag.message) == (
+        "E009",
+        Span(PATH, 2, 1),
+        "more than one YAML document in a file",
+    )
+    assert diag.hint == "a spec is a single document; remove this `---` and what follows"
+
+
 def test_explicit_single_document_is_fine():
     assert load_text("---\na: 1\n...\n", PATH) == {"a": 1}
 

@@ -1,4 +1,4 @@
-"""The input model (front_end/model.py) of what a spec leaves out: each default a user gets
+"""The input model (front_end/model.py): what a spec leaves out, each default a user gets
 when a key is omitted, as the later stages (the reference, the generated code) read it."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from rcsgen.compiler.front_end.model import (
     build_controller,
     build_io,
     build_operators,
+    build_properties,
 )
 
 
@@ -80,3 +81,38 @@ def test_a_device_s_process_and_the_segment_group_are_kept_where_written() -> No
     (plc,) = build_io(data, top).values()
     assert plc.process == Located("q", Span("system.yaml", 14, 14))
     assert build_operators(data, top).segment_group == Located("rcs", Span("system.yaml", 8, 18))
+
+
+def test_a_property_keeps_its_form_and_an_omitted_doc_is_empty() -> None:
+    """`properties:`: an invariant (`always`) or a response (`whenever`, `then`, `within`),
+    each part where it is written; a property without `doc:` has an empty one."""
+    text = """\
+        properties:
+          - name: safe
+            always: not on
+          - name: answers
+            doc: Each request is answered.
+            whenever: asked
+            then: answered
+            within: 3
+        """
+    data = load_text(textwrap.dedent(text), "co.yaml")
+    safe, answers = build_properties(data, Span("co.yaml", 1, 1))
+    assert (safe.name, safe.doc, safe.span) == (
+        Located("safe", Span("co.yaml", 2, 11)),
+        "",
+        Span("co.yaml", 2, 5),
+    )
+    assert (safe.always, safe.whenever, safe.then, safe.within) == (
+        Located("not on", Span("co.yaml", 3, 13)),
+        None,
+        None,
+        None,
+    )
+    assert (answers.doc, answers.always, answers.whenever, answers.then, answers.within) == (
+        "Each request is answered.",
+        None,
+        Located("asked", Span("co.yaml", 6, 15)),
+        Located("answered", Span("co.yaml", 7, 11)),
+        Located(3, Span("co.yaml", 8, 13)),
+    )
