@@ -466,3 +466,33 @@ def test_a_system_at_the_depth_bound_is_found_and_one_level_deeper_is_not(
         "`deep`; not searched further",
         "deep/z/system.yaml:2:1: error[E001]: expected the node content, but found '<stream end>'",
     ]
+
+
+@pytest.mark.parametrize(
+    ("error", "reason"),
+    [
+        (PermissionError(13, "Permission denied"), "permission denied"),
+        (OSError(5, "Input/output error"), "Input/output error"),
+        (OSError("no errno"), "no errno"),
+    ],
+)
+def test_a_directory_that_cannot_be_listed_is_e010_with_the_reason(
+    system: Path, monkeypatch: pytest.MonkeyPatch, error: OSError, reason: str
+) -> None:
+    """In process (the unprivileged runs above are other processes): a directory met while
+    searching that cannot be listed is E010 saying why."""
+    from rcsgen.compiler import frontend
+
+    (system.parent / "all" / "inner").mkdir(parents=True)
+    listing = os.scandir
+
+    def scandir(path: Path) -> object:
+        if Path(path).name == "inner":
+            raise error
+        return listing(path)
+
+    monkeypatch.setattr(frontend.os, "scandir", scandir)
+    found = frontend.compile_paths([Path("all")], analyse=False).diagnostics.errors
+    assert [(str(d.span), d.code, d.message, d.hint) for d in found] == [
+        ("all/inner:1:1", "E010", f"cannot read directory: {reason}", "check its permissions")
+    ]

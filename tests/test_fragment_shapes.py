@@ -268,3 +268,25 @@ def test_a_finding_is_placed_in_the_fragment_whose_lines_hold_it() -> None:
         diags.error(Span("top.yaml", 10, 1), "E204", "x")
         fragments.annotate(diags, moves[:n], 0)
         assert diags.items[0].hint.endswith(f"(BACK.S0){more}"), diags.items[0].hint
+
+
+def test_a_nested_use_making_a_state_the_outer_expansion_has_is_e268() -> None:
+    """twice's FIRST uses move_and_wait, whose WAIT becomes S0_WAIT: twice's own WAIT is
+    S0_WAIT too, so the inner use is refused (E268) and the command is not expanded."""
+    text = NESTED.replace(
+        "      SECOND: {use: move_and_wait, with: {x: 2.0, then: $then}}\n",
+        "      WAIT: [{next: $then}]\n",
+    )
+    diags = Diagnostics()
+    uses, whole = fragments.expand(load_text(text, "top.yaml"), {}, diags, Span("top.yaml"))
+    assert [(str(d.span), d.code, d.message, d.hint) for d in diags.items] == [
+        (
+            "top.yaml:15:20",
+            "E268",
+            "fragment `move_and_wait` used in `twice`'s `FIRST` makes state `S0_WAIT`, which "
+            "the expansion of `twice` already has",
+            "rename a state of one of the fragments",
+        )
+    ] * 2  # GO's use of twice and AWAY's
+    assert not whole
+    assert [(u.command, u.fragment.name) for u in uses] == [("BACK", "move_and_wait")]
