@@ -335,6 +335,24 @@ def test_nothing_after_a_second_document_start_is_read() -> None:
     assert diag.hint == "a spec is a single document; remove this `---` and what follows"
 
 
+@pytest.mark.parametrize(
+    ("text", "line", "col", "code"),
+    [('a: "\ud800"\n', 1, 5, "d800"), ("a: b\n# \udcff\n", 2, 3, "dcff")],
+)
+def test_a_lone_surrogate_is_e001_where_it_is_not_a_traceback(
+    text: str, line: int, col: int, code: str
+) -> None:
+    """A str that no file can give (decoding is strict) but a caller can: libyaml cannot
+    encode it, so the pure parser reads it and says where."""
+    [diag] = diagnostics(text)
+    assert (diag.code, diag.span, diag.message, diag.hint) == (
+        "E001",
+        Span(PATH, line, col),
+        f"unacceptable character #x{code}: special characters are not allowed",
+        "remove it",
+    )
+
+
 def test_explicit_single_document_is_fine():
     assert load_text("---\na: 1\n...\n", PATH) == {"a": 1}
 

@@ -382,17 +382,23 @@ def _fail(span: Span, code: str, message: str, hint: str) -> SpecError:
 
 def load_text(text: str, display_path: str) -> object:
     """Load one YAML document into located values; raise SpecError with every problem."""
-    if len(text.encode("utf-8", "surrogatepass")) > MAX_BYTES:
+    fast = _FAST_PARSER  # libyaml for speed; its events carry the same marks
+    try:
+        size = len(text.encode("utf-8"))
+    except UnicodeEncodeError:  # a lone surrogate (in a str not read from a file: `decode`
+        # is strict): libyaml cannot take it, the pure parser says where it is (E001)
+        size, fast = len(text.encode("utf-8", "surrogatepass")), None
+    if size > MAX_BYTES:
         raise _fail(Span(display_path), "E006", _TOO_LARGE, _TOO_LARGE_HINT)
     text = text.removeprefix("\ufeff")
-    if _FAST_PARSER is not None:  # libyaml for speed; its events carry the same marks
+    if fast is not None:
         try:
-            loaded = _plain(text, display_path, _FAST_PARSER)
+            loaded = _plain(text, display_path, fast)
         except yaml.YAMLError:  # a syntax error: `_build` says where
             loaded = _UNUSUAL
         if loaded is not _UNUSUAL:
             return loaded
-        diags, result = _build(text, display_path, _FAST_PARSER)
+        diags, result = _build(text, display_path, fast)
         if not diags.errors:
             return result
     # The pure-Python parser's problem messages are the ones diagnostics are written for.
