@@ -212,7 +212,7 @@ _ENDS = (yaml.MappingEndEvent, yaml.SequenceEndEvent)
 class _Builder:
     """Builds located values from parser events, collecting diagnostics."""
 
-    def __init__(self, path: str, diags: Diagnostics, text: str = "") -> None:
+    def __init__(self, path: str, diags: Diagnostics, text: str) -> None:
         self.path = path
         self.diags = diags
         self.text = text  # the file's text, where a quoted or block scalar is found again
