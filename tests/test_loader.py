@@ -267,6 +267,12 @@ def test_anchors_aliases_and_merge_keys_are_rejected():
     assert all(d.message == "anchors, aliases and merge keys are not allowed" for d in diags)
 
 
+def test_each_merge_key_is_told_once_and_never_as_a_duplicate_key() -> None:
+    """Two `<<` in one mapping: each is E005, neither is also E002 (the key is dropped)."""
+    diags = diagnostics("m:\n  <<: {a: 1}\n  <<: {b: 2}\n")
+    assert located(diags) == [("E005", 2, 3), ("E005", 3, 3)]
+
+
 # --- numbers ------------------------------------------------------------------------------------
 
 
@@ -513,8 +519,9 @@ def test_a_character_of_a_quoted_or_block_scalar_is_found_where_it_is_written() 
     """`char_span` steps over what quoting adds: a single-quoted scalar's opening quote and
     its doubled quotes, a double-quoted one's escapes, a block's indicator line (its `-` is
     not the text's); a whitespace character or one past the end is just after the
-    character before it."""
-    text = "b: '''q'' == r'\nc: \"\\\"q\\\" == r\"\nd: |-\n  -p ==\n  q\ne: >-\n  -s\n  t\n"
+    character before it. (The text starts with a line break: line 2's columns count from
+    it, the file's first character.)"""
+    text = "\nb: '''q'' == r'\nc: \"\\\"q\\\" == r\"\nd: |-\n  -p ==\n  q\ne: >-\n  -s\n  t\n"
     data = load_text(text, PATH)
 
     def columns(key: str) -> list[tuple[int, int]]:
@@ -522,7 +529,7 @@ def test_a_character_of_a_quoted_or_block_scalar_is_found_where_it_is_written() 
         spans = [loader_module.char_span(value, value, i) for i in range(len(value) + 1)]
         return [(span.line, span.col) for span in spans if span is not None]
 
-    assert columns("b") == [(1, c) for c in (5, 7, 8, 9, 11, 12, 13, 14, 15)]
-    assert columns("c") == [(2, c) for c in (6, 7, 9, 10, 11, 12, 13, 14, 15)]
-    assert columns("d") == [(4, 3), (4, 4), (4, 5), (4, 6), (4, 7), (4, 8), (5, 3), (5, 4)]
-    assert columns("e") == [(7, 3), (7, 4), (7, 5), (8, 3), (8, 4)]
+    assert columns("b") == [(2, c) for c in (5, 7, 8, 9, 11, 12, 13, 14, 15)]
+    assert columns("c") == [(3, c) for c in (6, 7, 9, 10, 11, 12, 13, 14, 15)]
+    assert columns("d") == [(5, 3), (5, 4), (5, 5), (5, 6), (5, 7), (5, 8), (6, 3), (6, 4)]
+    assert columns("e") == [(8, 3), (8, 4), (8, 5), (9, 3), (9, 4)]
