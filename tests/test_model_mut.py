@@ -1,5 +1,5 @@
-"""The input model (front_end/model.py): what a spec leaves out, each default a user gets
-when a key is omitted, as the later stages (the reference, the generated code) read it."""
+"""The input model (front_end/model.py) beyond what compiling a spec shows: the default of
+each key a spec leaves out, where each value is written, and durations in each unit."""
 
 from __future__ import annotations
 
@@ -14,6 +14,9 @@ from rcsgen.compiler.front_end.model import (
     build_io,
     build_operators,
     build_properties,
+    duration_in_cycles,
+    duration_seconds,
+    exact_cycles,
 )
 
 
@@ -116,3 +119,31 @@ def test_a_property_keeps_its_form_and_an_omitted_doc_is_empty() -> None:
         Located("answered", Span("co.yaml", 7, 11)),
         Located(3, Span("co.yaml", 8, 13)),
     )
+
+
+def test_a_duration_in_each_unit_is_whole_cycles_rounded_up() -> None:
+    """Seconds (a number or `s`), `ms` and `cycles`, at a period: cycles rounded up, at
+    least one (a limit is never shorter than asked); a float's noise (0.3 / 0.1) is not a
+    cycle more."""
+    cases = [(2, 0.5, 4), (0.3, 0.1, 3), ("500 ms", 0.1, 5), ("250 ms", 0.1, 3)]
+    cases += [("20 cycles", 0.1, 20), ("1 cycle", 0.1, 1), ("0 s", 0.1, 1), ("1.5 s", 1, 2)]
+    cases += [("2s", 0.5, 4), ("1001 ms", 1, 2)]
+    assert [duration_in_cycles(value, period) for value, period, _ in cases] == [
+        cycles for _, _, cycles in cases
+    ]
+
+
+def test_a_duration_in_seconds_and_in_exact_cycles() -> None:
+    """`duration_seconds`: cycles are periods, ms thousandths; `exact_cycles`: rounded up
+    (0 stays 0) and whether exact, to one part in a million of the cycles."""
+    seconds = [(3, 3.0), ("20 cycles", 2.0), ("500 ms", 0.5), ("2 s", 2.0), (" 1.5 s ", 1.5)]
+    assert [
+        duration_seconds(value, 0.1 if "cycle" in str(value) else 1) for value, _ in seconds
+    ] == [want for _, want in seconds]
+    exact = [("20 cycles", 0.1, (20, True)), ("2.5 cycles", 0.1, (3, False))]
+    exact += [(0.3, 0.1, (3, True)), ("250 ms", 0.1, (3, False)), (0, 0.1, (0, True))]
+    exact += [("1000 ms", 0.3, (4, False)), (1000.0000001, 1, (1000, True))]
+    exact += [(1.0000015, 1, (2, False))]
+    assert [exact_cycles(value, period) for value, period, _ in exact] == [
+        want for _, _, want in exact
+    ]
