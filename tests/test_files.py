@@ -496,3 +496,19 @@ def test_a_directory_that_cannot_be_listed_is_e010_with_the_reason(
     assert [(str(d.span), d.code, d.message, d.hint) for d in found] == [
         ("all/inner:1:1", "E010", f"cannot read directory: {reason}", "check its permissions")
     ]
+
+
+def test_the_real_path_of_a_symlink_loop_is_its_absolute_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A link loop cannot be resolved (Python 3.11 raises): it is kept as given, made
+    absolute, so that reading it says what is wrong (E012); a link that resolves gives its
+    target."""
+    from rcsgen.compiler.frontend import real_path
+
+    (tmp_path / "real").mkdir()
+    (tmp_path / "via").symlink_to("real", target_is_directory=True)
+    (tmp_path / "real" / "loop").symlink_to("loop")
+    monkeypatch.chdir(tmp_path)
+    assert real_path(Path("real/loop")) == tmp_path / "real" / "loop"
+    assert real_path(Path("via")) == (tmp_path / "real").resolve()
