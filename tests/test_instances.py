@@ -197,3 +197,27 @@ def test_a_template_s_finding_names_its_instances_by_subject_or_quoted_module() 
         "in instance `c4` (fleet/system.yaml:14:3) of template `cart`",
         "in instance `c5` (fleet/system.yaml:15:3) of template `cart`",
     ]
+
+
+def test_an_instance_renames_references_but_copies_text_as_written(fleet: Path) -> None:
+    """In c1's copy of the cart, `wheel` in an expression or a send is c1's wheel
+    (`c1_wheel`); in a doc it is a word, kept as written."""
+    cart = fleet / "cart" / "cart.yaml"
+    edit(cart, "title: Cart controller\n", "title: Cart controller\ndoc: Drives wheel.MOVE.\n")
+    edit(
+        cart,
+        "      S1:\n        - when: wheel.status == ERROR\n",
+        "      S1:\n        - doc: when wheel.status is ERROR\n"
+        "          when: wheel.status == ERROR\n",
+    )
+    front = compile_paths([fleet], analyse=False)
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics]
+    ((_, specs),) = front.models.values()
+    c1 = next(c for c in specs if c.name == "c1")
+    assert (c1.title, c1.doc) == ("Cart controller (c1)", "Drives wheel.MOVE.")
+    assert [str(s.value) for s in c1.subordinates] == ["c1_wheel"]
+    rule = c1.commands["GO"].states["S1"].rules[0]
+    assert (rule.doc, rule.when.value if rule.when else None) == (
+        "when wheel.status is ERROR",
+        "c1_wheel.status == ERROR",
+    )
