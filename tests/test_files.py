@@ -512,3 +512,20 @@ def test_the_real_path_of_a_symlink_loop_is_its_absolute_path(
     monkeypatch.chdir(tmp_path)
     assert real_path(Path("real/loop")) == tmp_path / "real" / "loop"
     assert real_path(Path("via")) == (tmp_path / "real").resolve()
+
+
+@pytest.mark.parametrize(("name", "what"), [("system.yaml", "system"), ("top.yaml", "controller")])
+def test_an_empty_spec_file_is_told_what_belongs_there(system: Path, name: str, what: str) -> None:
+    """E013's whole text, in process: the file, that it is empty, and what to write there."""
+    from rcsgen.compiler.frontend import compile_paths
+
+    (system / name).write_text("# nothing yet\n")
+    found = compile_paths([Path("sys")], analyse=False).diagnostics.errors
+    assert [(str(d.span), d.code, d.message, d.hint) for d in found] == [
+        (
+            f"sys/{name}:1:1",
+            "E013",
+            f"`{name}` is empty: it holds no YAML, only blank lines or comments",
+            f"write the {what} spec here, or delete the file",
+        )
+    ]
