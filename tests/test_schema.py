@@ -312,7 +312,10 @@ def test_s004_other_patterns():
         "`cr.go` is not a valid command to send: expected `<subordinate>.<COMMAND>`"
     )
     d = only(action("{set: {World.x: 1}}"), "S004")
-    assert d.message.startswith("`World.x` is not a valid assignment target")
+    assert d.message == (
+        "`World.x` is not a valid assignment target: expected `world.<field>`, `result.<name>` "
+        "or a lower_case local name"
+    )
     assert d.span == Span("x.yaml", 9, 22)
     d = only(check("controller: Co\ntitle: T\ncommands: {}\n"), "S004")
     assert d.message == (
@@ -601,3 +604,39 @@ def test_each_keyword_s_failure_is_told_in_its_own_words():
         ("S001", 11, 5, "missing required key `states`"),
         ("S005", 14, 27, "`FINISHED` is not a valid report status: expected `DONE` or `ERROR`"),
     ]
+
+
+def test_every_type_and_name_pattern_of_the_schemas_has_its_words():
+    """Each JSON type a shipped schema asks for is told in words (`a mapping`, not
+    `object`: a type added to a schema without its words is caught here), and each name
+    rule is written for a pattern a schema uses (a rule's pattern mistyped would leave its
+    names told "does not match `^[a-z]...$`")."""
+    from rcsgen.compiler.front_end.schema import _EXPECTED, _NAME_RULES, KINDS
+
+    types, patterns = set(), set()
+
+    def walk(node):
+        if isinstance(node, dict):
+            kind = node.get("type")  # (a dict there is a property named `type`)
+            types.update([kind] if isinstance(kind, str) else [])
+            types.update(kind if isinstance(kind, list) else [])
+            if isinstance(node.get("pattern"), str):
+                patterns.add(node["pattern"])
+            for key, value in node.items():
+                if key not in ("enum", "const", "examples", "default"):
+                    walk(value)
+        elif isinstance(node, list):
+            for value in node:
+                walk(value)
+
+    for kind in KINDS:
+        walk(schema_for(kind))
+    assert types <= set(_EXPECTED), types - set(_EXPECTED)
+    assert set(_NAME_RULES) <= patterns, set(_NAME_RULES) - patterns
+
+
+@pytest.mark.parametrize("word", ["yes", "no", "on", "off", "y", "n"])
+def test_s003_each_yaml_11_boolean_word_is_told_it_is_a_string(word):
+    diags = check(f"controller: co\ntitle: T\nlocals:\n  b: {{type: bool, initial: {word}}}\n")
+    [d] = [d for d in diags if d.code == "S003"]
+    assert d.hint == f"`{word}` is a string in YAML 1.2 (not a boolean): write true or false"
