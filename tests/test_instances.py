@@ -118,8 +118,8 @@ def test_a_constant_of_the_wrong_kind_is_told_in_words(fleet: Path) -> None:
     edit(fleet / "system.yaml", "{SPEED: 1.0}", "{SPEED: 1.0, LIMIT: 2.5}")
     edit(fleet / "system.yaml", "{SPEED: 2.0}", "{SPEED: true}")
     found = compile_paths([fleet], analyse=False).diagnostics.errors
-    assert [(d.code, d.message) for d in found] == [
-        ("E907", "the default of `LIMIT` is not an integer: 3.5"),
+    assert [(str(d.span), d.code, d.message) for d in found] == [
+        ("fleet/cart/template.yaml:7:31", "E907", "the default of `LIMIT` is not an integer: 3.5"),
     ]
     edit(fleet / "cart" / "template.yaml", "default: 3.5}", "default: 3}")
     found = compile_paths([fleet], analyse=False).diagnostics.errors

@@ -533,3 +533,5 @@ def test_a_character_of_a_quoted_or_block_scalar_is_found_where_it_is_written() 
     assert columns("c") == [(3, c) for c in (6, 7, 9, 10, 11, 12, 13, 14, 15)]
     assert columns("d") == [(5, 3), (5, 4), (5, 5), (5, 6), (5, 7), (5, 8), (6, 3), (6, 4)]
     assert columns("e") == [(8, 3), (8, 4), (8, 5), (9, 3), (9, 4)]
+    last = load_text("d: |", PATH)["d"]  # an empty block at the end: no line of text
+    assert loader_module.char_span(last, last, 0) is None
