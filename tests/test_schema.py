@@ -500,6 +500,8 @@ def test_the_fast_check_refuses_a_keyword_it_does_not_implement():
         ({"propertyNames": {"pattern": "^[a-z]+$"}}, {"ab": 1, "C": 2}, False),
         ({"propertyNames": {"pattern": "^[a-z]+$"}}, "not an object", True),
         ({"$defs": {"n": {"items": {"$ref": "#/$defs/n"}}}, "$ref": "#/$defs/n"}, [[[]]], True),
+        ({"description": "a note only"}, 3, True),  # no keyword: anything is valid
+        ({"then": {"type": "string"}}, 3, True),  # `then` without `if` says nothing
     ],
 )
 def test_the_fast_check_agrees_with_jsonschema_on_edge_cases(schema, value, valid):
