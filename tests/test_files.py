@@ -529,3 +529,21 @@ def test_an_empty_spec_file_is_told_what_belongs_there(system: Path, name: str, 
             f"write the {what} spec here, or delete the file",
         )
     ]
+
+
+def test_a_stray_mapping_in_a_system_is_e225_where_its_mapping_starts(system: Path) -> None:
+    """A YAML file that is neither a controller nor an operator: E225 at its first key (after
+    a comment line), with what belongs in a system directory."""
+    from rcsgen.compiler.frontend import compile_paths
+
+    (system / "notes.yaml").write_text("# to do\nnotes: a stray file\n")
+    found = compile_paths([Path("sys")], analyse=False).diagnostics.errors
+    assert [(str(d.span), d.code, d.message, d.hint) for d in found] == [
+        (
+            "sys/notes.yaml:2:1",
+            "E225",
+            "`notes.yaml` is not a controller spec (no `controller:` or `operator:` key)",
+            "only system.yaml, fragments.yaml and controller or operator files belong in a "
+            "system directory",
+        )
+    ]

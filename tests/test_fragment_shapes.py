@@ -1,10 +1,13 @@
 """A controller's `fragments:` read for shape (rcsgen/compiler/front_end/fragments.py's read, E269
 and E267): a good fragment is kept with its parameters, states and first-match states; each way
 of declaring one wrong gets its one error, word for word, and the fragment is kept as None so
-that its uses say nothing more. Loaded data in, diagnostics out: no spec is compiled."""
+that its uses say nothing more. Loaded data in, diagnostics out: no spec is compiled, but
+for a shared fragment left unused (W305), which only the front end over a system tells."""
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -13,6 +16,7 @@ from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span, Subject
 from rcsgen.compiler.front_end import fragments
 from rcsgen.compiler.front_end.loader import load_text
 
+TINY = Path(__file__).resolve().parent / "cases" / "valid" / "tiny"
 WHERE = Span("c.yaml", 7, 3)
 RULES = [{"when": "$limit > 0", "do": [{"report": "DONE"}]}]
 
@@ -290,3 +294,25 @@ def test_a_nested_use_making_a_state_the_outer_expansion_has_is_e268() -> None:
     ] * 2  # GO's use of twice and AWAY's
     assert not whole
     assert [(u.command, u.fragment.name) for u in uses] == [("BACK", "move_and_wait")]
+
+
+def test_a_shared_fragment_no_controller_uses_is_w305_unless_something_failed(
+    tmp_path: Path,
+) -> None:
+    """Compiled (the tiny system and a fragments.yaml): a shared fragment that no controller
+    uses is W305 at its name; after an error elsewhere it is not (a misspelt use would make
+    it noise)."""
+    from rcsgen.compiler.frontend import compile_paths
+
+    system = tmp_path / "tiny"
+    shutil.copytree(TINY, system)
+    (system / "fragments.yaml").write_text(
+        "fragments:\n  spare:\n    states:\n      A: [{do: [report: DONE]}]\n"
+    )
+    found = compile_paths([system], analyse=False).diagnostics
+    assert [(d.span.line, d.code, d.message) for d in found] == [
+        (2, "W305", "fragment `spare` is declared but no command uses it")
+    ]
+    (system / "top.yaml").write_text((system / "top.yaml").read_text() + "bogus: 1\n")
+    found = compile_paths([system], analyse=False).diagnostics
+    assert [d.code for d in found] == ["S002"]
