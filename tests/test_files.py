@@ -547,3 +547,21 @@ def test_a_stray_mapping_in_a_system_is_e225_where_its_mapping_starts(system: Pa
             "system directory",
         )
     ]
+
+
+def test_a_directory_without_a_system_is_e224_saying_what_one_holds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rcsgen.compiler.frontend import compile_paths
+
+    (tmp_path / "empty" / "sub").mkdir(parents=True)
+    monkeypatch.chdir(tmp_path)
+    found = compile_paths([Path("empty")], analyse=False).diagnostics.errors
+    assert [(str(d.span), d.code, d.message, d.hint) for d in found] == [
+        (
+            "empty:1:1",
+            "E224",
+            "no system.yaml found under `empty`",
+            "a system directory holds system.yaml and one <mnemonic>.yaml per controller",
+        )
+    ]

@@ -316,3 +316,36 @@ def test_a_shared_fragment_no_controller_uses_is_w305_unless_something_failed(
     (system / "top.yaml").write_text((system / "top.yaml").read_text() + "bogus: 1\n")
     found = compile_paths([system], analyse=False).diagnostics
     assert [d.code for d in found] == ["S002"]
+
+
+def test_a_fragment_with_an_unknown_key_leaves_the_next_one_whole() -> None:
+    found, said = read(
+        {
+            "bad": {"states": {"A": RULES}, "parms": ["limit"]},
+            "good": {"states": {"A": RULES}, "params": ["limit"]},
+        }
+    )
+    assert [code for code, _, _ in said] == ["E269"]
+    assert found["bad"] is None and found["good"] is not None
+
+
+def test_a_wrong_first_match_is_e269_at_its_value() -> None:
+    text = (
+        "twice:\n  params: [limit]\n  first_match: [B]\n  states:\n"
+        "    A: [{when: $limit > 0, do: [report: DONE]}]\n"
+    )
+    diags = Diagnostics()
+    found = fragments.read(load_text(text, "c.yaml"), Span("c.yaml"), diags)
+    assert found == {"twice": None}
+    assert [(str(d.span), d.code, d.message) for d in diags.items] == [
+        ("c.yaml:3:16", "E269", "fragment `twice`'s `first_match` must list its own states")
+    ]
+
+
+def test_a_command_without_uses_leaves_the_next_command_s_uses_expanded() -> None:
+    text = NESTED.replace(
+        "commands:\n", "commands:\n  IDLE:\n    states:\n      S0: [{next: S0}]\n"
+    )
+    uses, whole = fragments.expand(load_text(text, "top.yaml"), {}, Diagnostics(), Span("top.yaml"))
+    assert whole
+    assert [u.command for u in uses] == ["GO", "GO", "GO", "BACK", "AWAY", "AWAY", "AWAY"]

@@ -642,3 +642,11 @@ def test_s003_each_yaml_11_boolean_word_is_told_it_is_a_string(word):
     diags = check(f"controller: co\ntitle: T\nlocals:\n  b: {{type: bool, initial: {word}}}\n")
     [d] = [d for d in diags if d.code == "S003"]
     assert d.hint == f"`{word}` is a string in YAML 1.2 (not a boolean): write true or false"
+
+
+def test_s003_a_list_and_a_mapping_are_named_in_words():
+    diags = check("controller: co\ntitle: T\nsubordinates: cr\nlocals: [n]\ncommands: {}\n")
+    assert [(d.code, d.span.line, d.message) for d in diags] == [
+        ("S003", 3, "`subordinates`: expected a list, got a string `cr`"),
+        ("S003", 4, "`locals`: expected a mapping, got a list"),
+    ]
