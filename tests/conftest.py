@@ -64,6 +64,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_hooks_isolation",
             "test_hooks_read",
             "test_instances",
+            "test_model_mut",
             "test_io_checks",
             "test_io_connect_errors",
             "test_loader",

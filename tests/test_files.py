@@ -440,3 +440,128 @@ def test_unwritable_parent_of_a_new_output_directory_is_e306(system: Path) -> No
         "locked:1:1: error[E306]: cannot write in `locked`: permission denied (read-only?)"
     ]
     assert list(parent.iterdir()) == []
+
+
+def test_a_system_at_the_depth_bound_is_found_and_one_level_deeper_is_not(
+    system: Path,
+) -> None:
+    """The bound counts directories: a system MAX_DIR_DEPTH levels below the path given is
+    still found (and valid); one level further, the search stops there with E014 and goes on
+    with the directories beside it."""
+    from rcsgen.compiler.frontend import MAX_DIR_DEPTH
+
+    at_bound = system.parent.joinpath("deep", *["d"] * MAX_DIR_DEPTH)
+    shutil.copytree(system, at_bound)
+    result = rcsgen("validate", "deep")
+    assert (result.exit_code, errors(result.output)) == (0, []), result.output
+    (at_bound / "d").mkdir()
+    for path in [p for p in at_bound.iterdir() if p.name != "d"]:
+        path.rename(at_bound / "d" / path.name)
+    (system.parent / "deep" / "z").mkdir()  # searched after the bound was met
+    (system.parent / "deep" / "z" / "system.yaml").write_text("system: [\n")
+    result = rcsgen("validate", "deep")
+    shown = "deep/" + "/".join(["d"] * MAX_DIR_DEPTH)
+    assert errors(result.output) == [
+        f"{shown}:1:1: error[E014]: directories nest more than {MAX_DIR_DEPTH} levels below "
+        "`deep`; not searched further",
+        "deep/z/system.yaml:2:1: error[E001]: expected the node content, but found '<stream end>'",
+    ]
+
+
+@pytest.mark.parametrize(
+    ("error", "reason"),
+    [
+        (PermissionError(13, "Permission denied"), "permission denied"),
+        (OSError(5, "Input/output error"), "Input/output error"),
+        (OSError("no errno"), "no errno"),
+    ],
+)
+def test_a_directory_that_cannot_be_listed_is_e010_with_the_reason(
+    system: Path, monkeypatch: pytest.MonkeyPatch, error: OSError, reason: str
+) -> None:
+    """In process (the unprivileged runs above are other processes): a directory met while
+    searching that cannot be listed is E010 saying why."""
+    from rcsgen.compiler import frontend
+
+    (system.parent / "all" / "inner").mkdir(parents=True)
+    listing = os.scandir
+
+    def scandir(path: Path) -> object:
+        if Path(path).name == "inner":
+            raise error
+        return listing(path)
+
+    monkeypatch.setattr(frontend.os, "scandir", scandir)
+    found = frontend.compile_paths([Path("all")], analyse=False).diagnostics.errors
+    assert [(str(d.span), d.code, d.message, d.hint) for d in found] == [
+        ("all/inner:1:1", "E010", f"cannot read directory: {reason}", "check its permissions")
+    ]
+
+
+def test_the_real_path_of_a_symlink_loop_is_its_absolute_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A link loop cannot be resolved (Python 3.11 raises): it is kept as given, made
+    absolute, so that reading it says what is wrong (E012); a link that resolves gives its
+    target."""
+    from rcsgen.compiler.frontend import real_path
+
+    (tmp_path / "real").mkdir()
+    (tmp_path / "via").symlink_to("real", target_is_directory=True)
+    (tmp_path / "real" / "loop").symlink_to("loop")
+    monkeypatch.chdir(tmp_path)
+    assert real_path(Path("real/loop")) == tmp_path / "real" / "loop"
+    assert real_path(Path("via")) == (tmp_path / "real").resolve()
+
+
+@pytest.mark.parametrize(("name", "what"), [("system.yaml", "system"), ("top.yaml", "controller")])
+def test_an_empty_spec_file_is_told_what_belongs_there(system: Path, name: str, what: str) -> None:
+    """E013's whole text, in process: the file, that it is empty, and what to write there."""
+    from rcsgen.compiler.frontend import compile_paths
+
+    (system / name).write_text("# nothing yet\n")
+    found = compile_paths([Path("sys")], analyse=False).diagnostics.errors
+    assert [(str(d.span), d.code, d.message, d.hint) for d in found] == [
+        (
+            f"sys/{name}:1:1",
+            "E013",
+            f"`{name}` is empty: it holds no YAML, only blank lines or comments",
+            f"write the {what} spec here, or delete the file",
+        )
+    ]
+
+
+def test_a_stray_mapping_in_a_system_is_e225_where_its_mapping_starts(system: Path) -> None:
+    """A YAML file that is neither a controller nor an operator: E225 at its first key (after
+    a comment line), with what belongs in a system directory."""
+    from rcsgen.compiler.frontend import compile_paths
+
+    (system / "notes.yaml").write_text("# to do\nnotes: a stray file\n")
+    found = compile_paths([Path("sys")], analyse=False).diagnostics.errors
+    assert [(str(d.span), d.code, d.message, d.hint) for d in found] == [
+        (
+            "sys/notes.yaml:2:1",
+            "E225",
+            "`notes.yaml` is not a controller spec (no `controller:` or `operator:` key)",
+            "only system.yaml, fragments.yaml and controller or operator files belong in a "
+            "system directory",
+        )
+    ]
+
+
+def test_a_directory_without_a_system_is_e224_saying_what_one_holds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rcsgen.compiler.frontend import compile_paths
+
+    (tmp_path / "empty" / "sub").mkdir(parents=True)
+    monkeypatch.chdir(tmp_path)
+    found = compile_paths([Path("empty")], analyse=False).diagnostics.errors
+    assert [(str(d.span), d.code, d.message, d.hint) for d in found] == [
+        (
+            "empty:1:1",
+            "E224",
+            "no system.yaml found under `empty`",
+            "a system directory holds system.yaml and one <mnemonic>.yaml per controller",
+        )
+    ]

@@ -108,3 +108,116 @@ def test_a_bool_constant_takes_true_or_false_and_its_default(fleet: Path) -> Non
         "E905",
         "`ARMED` of template `cart` is true or false, not 1",
     )
+
+
+def test_a_constant_of_the_wrong_kind_is_told_in_words(fleet: Path) -> None:
+    """A constant of the wrong kind is told what it takes, as a user reads it: an int
+    constant `an integer`, a float one `a number`, in an instance (E905) as in a default
+    (E907)."""
+    edit(fleet / "cart" / "template.yaml", "default: 3}", "default: 3.5}")
+    edit(fleet / "system.yaml", "{SPEED: 1.0}", "{SPEED: 1.0, LIMIT: 2.5}")
+    edit(fleet / "system.yaml", "{SPEED: 2.0}", "{SPEED: true}")
+    found = compile_paths([fleet], analyse=False).diagnostics.errors
+    assert [(str(d.span), d.code, d.message) for d in found] == [
+        ("fleet/cart/template.yaml:7:31", "E907", "the default of `LIMIT` is not an integer: 3.5"),
+    ]
+    edit(fleet / "cart" / "template.yaml", "default: 3.5}", "default: 3}")
+    found = compile_paths([fleet], analyse=False).diagnostics.errors
+    assert [(d.code, d.message) for d in found] == [
+        ("E905", "`LIMIT` of template `cart` is an integer, not 2.5"),
+        ("E905", "`SPEED` of template `cart` is a number, not True"),
+    ]
+
+
+def test_each_misnamed_controller_file_of_a_template_is_reported(fleet: Path) -> None:
+    """Two controller files of a template named unlike their controllers: E222 for each, not
+    the first alone."""
+    for name in ("cart", "wheel"):
+        (fleet / "cart" / f"{name}.yaml").rename(fleet / "cart" / f"{name}_x.yaml")
+    found = compile_paths([fleet], analyse=False).diagnostics.errors
+    assert [(d.code, d.message) for d in found] == [
+        ("E222", "controller `cart` is declared in `cart_x.yaml`"),
+        ("E222", "controller `wheel` is declared in `wheel_x.yaml`"),
+    ]
+
+
+def test_a_template_s_finding_names_its_instances_by_subject_or_quoted_module() -> None:
+    """`annotate` in process (no build): a finding in a template's file names the instances
+    it was found in, by its subject's controller, else by a module quoted in its message (at
+    most three named); one outside the template's directory, or from index `first` back, or
+    naming no instance's module is left as it is. Acknowledged findings are named too."""
+    from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span, Subject
+    from rcsgen.compiler.front_end.instances import Instance, Template, annotate
+    from rcsgen.compiler.front_end.loader import LocDict
+
+    at = Span("fleet/cart/template.yaml", 1, 1)
+    cart = Template(
+        "cart", Path("fleet/cart"), at, "Cart", "cart", {}, LocDict(at), {}, {}, [], {}, {}
+    )
+    made = [
+        Instance(
+            f"c{n}",
+            cart,
+            Span("fleet/system.yaml", 10 + n, 3),
+            "",
+            {},
+            {},
+            {"cart": f"c{n}", "wheel": f"c{n}_wheel"},
+        )
+        for n in range(1, 6)
+    ]
+    wheel = Span("fleet/cart/wheel.yaml", 14, 9)
+    diags = Diagnostics()
+    diags.error(wheel, "E204", "unknown command `c9_wheel.GO`", "seen before index first")
+    diags.warning(
+        wheel,
+        "W503",
+        "this state can wait forever",
+        "add a timeout",
+        Subject("c2_wheel", "GO", "S0"),
+    )
+    diags.error(wheel, "E204", "`c1_wheel.MOVEE` and `c3.GO` are not commands")
+    diags.error(wheel, "E204", "`c1_wheel.MOVEE`, `c2.X`, `c3.Y`, `c4.Z`: not commands")
+    diags.error(wheel, "E204", "unknown command `c9_wheel.GO`", "no instance's module")
+    diags.error(Span("fleet/boss.yaml", 3, 1), "E204", "`c1.GO` is not a command", "elsewhere")
+    diags.error(Span("wheel.yaml", 3, 1), "E204", "`c1.GO` is not a command", "no directory")
+    diags.error(Span("cart/wheel.yaml", 3, 1), "E204", "`c4.GO` is not a command")
+    diags.acknowledge(Diagnostic(wheel, "W503", "acknowledged", "", Subject("c5")), "why")
+    annotate(diags, made, 1)
+    assert [d.hint for d in [*diags.items, *diags.acknowledged]] == [
+        "seen before index first",
+        "add a timeout (in instance `c2` (fleet/system.yaml:12:3) of template `cart`)",
+        "in instance `c1` (fleet/system.yaml:11:3), instance `c3` (fleet/system.yaml:13:3) "
+        "of template `cart`",
+        "in instance `c1` (fleet/system.yaml:11:3), instance `c2` (fleet/system.yaml:12:3), "
+        "instance `c3` (fleet/system.yaml:13:3) of template `cart`",
+        "no instance's module",
+        "elsewhere",
+        "no directory",
+        "in instance `c4` (fleet/system.yaml:14:3) of template `cart`",
+        "in instance `c5` (fleet/system.yaml:15:3) of template `cart`",
+    ]
+
+
+def test_an_instance_renames_references_but_copies_text_as_written(fleet: Path) -> None:
+    """In c1's copy of the cart, `wheel` in an expression or a send is c1's wheel
+    (`c1_wheel`); in a doc it is a word, kept as written."""
+    cart = fleet / "cart" / "cart.yaml"
+    edit(cart, "title: Cart controller\n", "title: Cart controller\ndoc: Drives wheel.MOVE.\n")
+    edit(
+        cart,
+        "      S1:\n        - when: wheel.status == ERROR\n",
+        "      S1:\n        - doc: when wheel.status is ERROR\n"
+        "          when: wheel.status == ERROR\n",
+    )
+    front = compile_paths([fleet], analyse=False)
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics]
+    ((_, specs),) = front.models.values()
+    c1 = next(c for c in specs if c.name == "c1")
+    assert (c1.title, c1.doc) == ("Cart controller (c1)", "Drives wheel.MOVE.")
+    assert [str(s.value) for s in c1.subordinates] == ["c1_wheel"]
+    rule = c1.commands["GO"].states["S1"].rules[0]
+    assert (rule.doc, rule.when.value if rule.when else None) == (
+        "when wheel.status is ERROR",
+        "c1_wheel.status == ERROR",
+    )

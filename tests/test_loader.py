@@ -248,11 +248,29 @@ def test_every_explicit_tag_is_rejected(tagged: str):
     assert located(diagnostics(f"v: {tagged}\n")) == [("E005", 1, 4)]
 
 
+def test_a_tagged_key_is_reported_once_as_a_tag() -> None:
+    """`!!str 1: x`: the tag is the one mistake told; the key it makes (1, not a string) is
+    not reported again as E003."""
+    [diag] = diagnostics("!!str 1: x\n")
+    assert (diag.code, diag.span, diag.message) == (
+        "E005",
+        Span(PATH, 1, 1),
+        "tags are not allowed",
+    )
+    assert diag.hint == "remove `!!str`; a spec is plain data and no tag is ever constructed"
+
+
 def test_anchors_aliases_and_merge_keys_are_rejected():
     text = "base: &b {x: 1}\ncopy: *b\nmerged:\n  <<: {y: 2}\nquoted:\n  '<<': fine\n*b : 3\n"
     diags = diagnostics(text)  # an alias used as a key is not also reported as E003
     assert located(diags) == [("E005", 1, 7), ("E005", 2, 7), ("E005", 4, 3), ("E005", 7, 1)]
     assert all(d.message == "anchors, aliases and merge keys are not allowed" for d in diags)
+
+
+def test_each_merge_key_is_told_once_and_never_as_a_duplicate_key() -> None:
+    """Two `<<` in one mapping: each is E005, neither is also E002 (the key is dropped)."""
+    diags = diagnostics("m:\n  <<: {a: 1}\n  <<: {b: 2}\n")
+    assert located(diags) == [("E005", 2, 3), ("E005", 3, 3)]
 
 
 # --- numbers ------------------------------------------------------------------------------------
@@ -308,6 +326,37 @@ def test_pathological_nesting_never_escapes_as_another_exception(opener: str):
 @pytest.mark.parametrize(("text", "line"), [("a: 1\n---\nb: 2\n", 2), ("--- a\n--- b\n", 2)])
 def test_more_than_one_document_is_rejected(text: str, line: int):
     assert located(diagnostics(text)) == [("E009", line, 1)]
+
+
+def test_nothing_after_a_second_document_start_is_read() -> None:
+    """After E009 the rest of the stream is not read: what is wrong there (a tag, a
+    duplicate key, a syntax error) is not reported on top of it."""
+    text = "a: 1\n---\nb: !!str x\nb: 2\nc: [\n"
+    [diag] = diagnostics(text)
+    assert (diag.code, diag.span, diag.message) == (
+        "E009",
+        Span(PATH, 2, 1),
+        "more than one YAML document in a file",
+    )
+    assert diag.hint == "a spec is a single document; remove this `---` and what follows"
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "col", "code"),
+    [('a: "\ud800"\n', 1, 5, "d800"), ("a: b\n# \udcff\n", 2, 3, "dcff")],
+)
+def test_a_lone_surrogate_is_e001_where_it_is_not_a_traceback(
+    text: str, line: int, col: int, code: str
+) -> None:
+    """A str that no file can give (decoding is strict) but a caller can: libyaml cannot
+    encode it, so the pure parser reads it and says where."""
+    [diag] = diagnostics(text)
+    assert (diag.code, diag.span, diag.message, diag.hint) == (
+        "E001",
+        Span(PATH, line, col),
+        f"unacceptable character #x{code}: special characters are not allowed",
+        "remove it",
+    )
 
 
 def test_explicit_single_document_is_fine():
@@ -464,3 +513,25 @@ def test_a_path_is_shown_relative_inside_the_working_directory_and_whole_outside
     outside = (tmp_path / "elsewhere" / "x.yaml").resolve()
     assert display_path(tmp_path / "elsewhere" / "x.yaml") == outside.as_posix()
     assert display_path(Path("../elsewhere/x.yaml")) == outside.as_posix()
+
+
+def test_a_character_of_a_quoted_or_block_scalar_is_found_where_it_is_written() -> None:
+    """`char_span` steps over what quoting adds: a single-quoted scalar's opening quote and
+    its doubled quotes, a double-quoted one's escapes, a block's indicator line (its `-` is
+    not the text's); a whitespace character or one past the end is just after the
+    character before it. (The text starts with a line break: line 2's columns count from
+    it, the file's first character.)"""
+    text = "\nb: '''q'' == r'\nc: \"\\\"q\\\" == r\"\nd: |-\n  -p ==\n  q\ne: >-\n  -s\n  t\n"
+    data = load_text(text, PATH)
+
+    def columns(key: str) -> list[tuple[int, int]]:
+        value = data[key]
+        spans = [loader_module.char_span(value, value, i) for i in range(len(value) + 1)]
+        return [(span.line, span.col) for span in spans if span is not None]
+
+    assert columns("b") == [(2, c) for c in (5, 7, 8, 9, 11, 12, 13, 14, 15)]
+    assert columns("c") == [(3, c) for c in (6, 7, 9, 10, 11, 12, 13, 14, 15)]
+    assert columns("d") == [(5, 3), (5, 4), (5, 5), (5, 6), (5, 7), (5, 8), (6, 3), (6, 4)]
+    assert columns("e") == [(8, 3), (8, 4), (8, 5), (9, 3), (9, 4)]
+    last = load_text("d: |", PATH)["d"]  # an empty block at the end: no line of text
+    assert loader_module.char_span(last, last, 0) is None

@@ -312,7 +312,10 @@ def test_s004_other_patterns():
         "`cr.go` is not a valid command to send: expected `<subordinate>.<COMMAND>`"
     )
     d = only(action("{set: {World.x: 1}}"), "S004")
-    assert d.message.startswith("`World.x` is not a valid assignment target")
+    assert d.message == (
+        "`World.x` is not a valid assignment target: expected `world.<field>`, `result.<name>` "
+        "or a lower_case local name"
+    )
     assert d.span == Span("x.yaml", 9, 22)
     d = only(check("controller: Co\ntitle: T\ncommands: {}\n"), "S004")
     assert d.message == (
@@ -497,6 +500,8 @@ def test_the_fast_check_refuses_a_keyword_it_does_not_implement():
         ({"propertyNames": {"pattern": "^[a-z]+$"}}, {"ab": 1, "C": 2}, False),
         ({"propertyNames": {"pattern": "^[a-z]+$"}}, "not an object", True),
         ({"$defs": {"n": {"items": {"$ref": "#/$defs/n"}}}, "$ref": "#/$defs/n"}, [[[]]], True),
+        ({"description": "a note only"}, 3, True),  # no keyword: anything is valid
+        ({"then": {"type": "string"}}, 3, True),  # `then` without `if` says nothing
     ],
 )
 def test_the_fast_check_agrees_with_jsonschema_on_edge_cases(schema, value, valid):
@@ -557,3 +562,93 @@ def test_the_fast_check_agrees_with_jsonschema_on_mutated_examples():
         assert fast_check(kind)(mutant) is expected, (kind, where, last, operation)
         verdicts[expected] += 1
     assert min(verdicts.values()) >= 30, verdicts  # both verdicts exercised
+
+
+def test_each_keyword_s_failure_is_told_in_its_own_words():
+    """One document with a mistake of each kind the schema finds (a required key, an unknown
+    key, a type of each kind, a pattern, an enum, a minimum, a minimum of items, a `const` of
+    an if/then): each is told by its own code and sentence, never jsonschema's words."""
+    diags = check("""\
+        controller: Co
+        title: 3
+        subordinate: [cr]
+        locals:
+          n: {type: flaot, initial: 0}
+          e: {type: enum, values: [], initial: A}
+          s: {type: str, size: 0, initial: ""}
+          i: {type: int, values: [A], initial: 0}
+          b: {type: bool, initial: 3}
+          f: {type: float, initial: "x"}
+          k: {type: int, initial: 1.5}
+        commands:
+          GO:
+            doc: no states
+            params: [x]
+          STOP:
+            first_match: S0
+            states:
+              S0: [{do: [{report: FINISHED}]}]
+        """)
+    assert [(d.code, d.span.line, d.span.col, d.message) for d in diags] == [
+        (
+            "S004",
+            1,
+            13,
+            "`Co` is not a valid controller mnemonic: controller mnemonics are lower_case "
+            "identifiers",
+        ),
+        ("S003", 2, 8, "`title`: expected a string, got an integer `3`"),
+        ("S002", 3, 1, "unknown key `subordinate`"),
+        (
+            "S005",
+            5,
+            13,
+            "`flaot` is not a valid type: expected `bool`, `int`, `float`, `enum` or `str`",
+        ),
+        ("S005", 6, 27, "`values`: needs at least one item, got none"),
+        ("S005", 7, 24, "`size`: must be at least 1, got 0"),
+        ("S005", 8, 13, "`int` is not a valid value: expected `enum`"),
+        ("S003", 9, 28, "`initial`: expected a boolean, got an integer `3`"),
+        ("S003", 10, 29, "`initial`: expected a number, got a string `x`"),
+        ("S003", 11, 27, "`initial`: expected an integer, got a float `1.5`"),
+        ("S001", 14, 5, "missing required key `states`"),
+        ("S003", 15, 13, "`params`: expected a mapping, got a list"),
+        ("S003", 17, 18, "`first_match`: expected a list, got a string `S0`"),
+        ("S005", 19, 27, "`FINISHED` is not a valid report status: expected `DONE` or `ERROR`"),
+    ]
+
+
+def test_every_type_and_name_pattern_of_the_schemas_has_its_words():
+    """Each JSON type a shipped schema asks for is told in words (`a mapping`, not
+    `object`: a type added to a schema without its words is caught here), and each name
+    rule is written for a pattern a schema uses (a rule's pattern mistyped would leave its
+    names told "does not match `^[a-z]...$`")."""
+    from rcsgen.compiler.front_end.schema import _EXPECTED, _NAME_RULES, KINDS
+
+    types, patterns = set(), set()
+
+    def walk(node):
+        if isinstance(node, dict):
+            kind = node.get("type")  # (a dict there is a property named `type`)
+            types.update([kind] if isinstance(kind, str) else [])
+            types.update(kind if isinstance(kind, list) else [])
+            if isinstance(node.get("pattern"), str):
+                patterns.add(node["pattern"])
+            for key, value in node.items():
+                if key not in ("enum", "const", "examples", "default"):
+                    walk(value)
+        elif isinstance(node, list):
+            for value in node:
+                walk(value)
+
+    for kind in KINDS:
+        walk(schema_for(kind))
+    assert types <= set(_EXPECTED), types - set(_EXPECTED)
+    assert set(_NAME_RULES) <= patterns, set(_NAME_RULES) - patterns
+
+
+@pytest.mark.parametrize("word", ["yes", "no", "on", "off", "y", "n"])
+def test_s003_each_yaml_11_boolean_word_is_told_it_is_a_string(word):
+    diags = check(f"controller: co\ntitle: T\nlocals:\n  b: {{type: bool, initial: {word}}}\n")
+    [d] = [d for d in diags if d.code == "S003"]
+    assert d.hint == f"`{word}` is a string in YAML 1.2 (not a boolean): write true or false"

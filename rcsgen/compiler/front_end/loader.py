@@ -212,7 +212,7 @@ _ENDS = (yaml.MappingEndEvent, yaml.SequenceEndEvent)
 class _Builder:
     """Builds located values from parser events, collecting diagnostics."""
 
-    def __init__(self, path: str, diags: Diagnostics, text: str = "") -> None:
+    def __init__(self, path: str, diags: Diagnostics, text: str) -> None:
         self.path = path
         self.diags = diags
         self.text = text  # the file's text, where a quoted or block scalar is found again
@@ -382,17 +382,23 @@ def _fail(span: Span, code: str, message: str, hint: str) -> SpecError:
 
 def load_text(text: str, display_path: str) -> object:
     """Load one YAML document into located values; raise SpecError with every problem."""
-    if len(text.encode("utf-8", "surrogatepass")) > MAX_BYTES:
+    fast = _FAST_PARSER  # libyaml for speed; its events carry the same marks
+    try:
+        size = len(text.encode("utf-8"))
+    except UnicodeEncodeError:  # a lone surrogate (in a str not read from a file: `decode`
+        # is strict): libyaml cannot take it, the pure parser says where it is (E001)
+        size, fast = len(text.encode("utf-8", "surrogatepass")), None
+    if size > MAX_BYTES:
         raise _fail(Span(display_path), "E006", _TOO_LARGE, _TOO_LARGE_HINT)
     text = text.removeprefix("\ufeff")
-    if _FAST_PARSER is not None:  # libyaml for speed; its events carry the same marks
+    if fast is not None:
         try:
-            loaded = _plain(text, display_path, _FAST_PARSER)
+            loaded = _plain(text, display_path, fast)
         except yaml.YAMLError:  # a syntax error: `_build` says where
             loaded = _UNUSUAL
         if loaded is not _UNUSUAL:
             return loaded
-        diags, result = _build(text, display_path, _FAST_PARSER)
+        diags, result = _build(text, display_path, fast)
         if not diags.errors:
             return result
     # The pure-Python parser's problem messages are the ones diagnostics are written for.
@@ -562,7 +568,8 @@ def _os_problem(exc: OSError, what: str) -> PathProblem:
 
 _LINK_HINT = "fix or remove the symbolic link"
 _REGULAR_HINT = "rcsgen reads only regular files"
-_NONBLOCK = getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
+# (no O_CLOEXEC: os.open makes every descriptor non-inheritable itself, PEP 446)
+_NONBLOCK = getattr(os, "O_NONBLOCK", 0)
 
 
 def path_problem(path: pathlib.Path, want: str = "file") -> PathProblem | None:

@@ -33,7 +33,9 @@ _NAME_RULES = {
     "^[a-z][a-z0-9_]*$": "{}s are lower_case identifiers",
     "^[A-Z][A-Z0-9_]*$": "{}s are UPPER_CASE identifiers",
     r"^[a-z_][a-z0-9_]*(\.[a-z_][a-z0-9_]*)*$": "{}s are dotted lower_case Python names",
-    r"^(world\.)?[a-z][a-z0-9_]*$": "expected `world.<field>` or a local name",
+    r"^((world|result)\.)?[a-z][a-z0-9_]*$": (
+        "expected `world.<field>`, `result.<name>` or a lower_case local name"
+    ),
     r"^[a-z][a-z0-9_]*\.[A-Z][A-Z0-9_]*$": "expected `<subordinate>.<COMMAND>`",
     r"^([A-Z][A-Z0-9_]*|[a-z][a-z0-9_]*\.reason)$": (
         "expected an UPPER_CASE reason, or `<subordinate>.reason` to pass its reason up"
