@@ -8,6 +8,9 @@ every_cycle rules raise `world_set`. One small system of two controllers, in pro
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
+import itertools
 from pathlib import Path
 
 import pytest
@@ -214,3 +217,74 @@ def test_only_the_every_cycle_rules_that_set_a_world_field_raise_the_world_set_f
     assert lowered.io is not None
     assert lowered.io.world_set_rules == (fills.id,)
     assert "world_set" in lowered.io.slots
+
+
+def test_a_rule_whose_guard_reads_a_subordinates_error_names_it_as_the_cause(lowered) -> None:
+    """`dev.status == ERROR` in a guard makes dev the rule's cause (its reason is passed up,
+    docs/semantics.md "Reasons survive"); `dev.status == DONE` names no cause."""
+    go = lowered["top"].commands[-1]
+    assert go.name == "GO"
+    assert [(r.guard.text if r.guard else None, r.cause_of) for r in go.states[1].rules] == [
+        ("dev.status == ERROR", "dev"),
+        ("dev.status == DONE", ""),
+    ]
+
+
+@pytest.mark.parametrize(("period", "deadline"), [(0.1, 1.0), (0.5, 2.5)])
+def test_a_hook_that_declares_no_deadline_gets_five_periods_and_at_least_a_second(
+    tmp_path: Path, period: float, deadline: float
+) -> None:
+    """docs/spec.md, a hook's `deadline`: 5 cycle periods of its process, at least 1 s."""
+    dev = DEV.replace(
+        "predicates:\n",
+        "hooks_module: pair_hooks\nhooks:\n  gauge:\n    doc: Read the gauge.\n"
+        "    args: []\n    returns: [mode]\npredicates:\n",
+    )
+    dev = dev.replace("[set: {mode: FAST}, report: DONE]", "[call: gauge, report: DONE]")
+    (tmp_path / "pair_hooks.py").write_text("def gauge():\n    return 1\n")
+    system = SYSTEM.replace("cycle_period: 0.1", f"cycle_period: {period}")
+    assert compiled(tmp_path, system=system, dev=dev)["dev"].hook_calls == (
+        ("gauge", deadline, "e4"),
+    )
+
+
+SPECS = Path(__file__).resolve().parent.parent / "specs"
+
+
+def test_every_dataclass_of_the_ir_is_frozen() -> None:
+    """docs/architecture.md: the IR is frozen dataclasses; the back end and the tools only
+    read it, and a value one of them changed would change every later reader's output."""
+    classes = [
+        c
+        for _, c in inspect.getmembers(ir, inspect.isclass)
+        if c.__module__ == ir.__name__ and dataclasses.is_dataclass(c)
+    ]
+    assert len(classes) > 30
+    assert [c.__name__ for c in classes if not c.__dataclass_params__.frozen] == []
+
+
+def _buffers(value: object) -> list[ir.Buffer]:
+    """Every Buffer held anywhere in a layout's fields."""
+    if isinstance(value, ir.Buffer):
+        return [value]
+    if isinstance(value, dict):
+        value = list(value.values())
+    elif dataclasses.is_dataclass(value):
+        value = [getattr(value, f.name) for f in dataclasses.fields(value)]
+    if isinstance(value, (list, tuple)):
+        return [b for v in value for b in _buffers(v)]
+    return []
+
+
+def test_the_layouts_buffer_list_holds_each_of_its_buffers_once_in_block_order() -> None:
+    """all_buffers (the layout's hash, the layout module's table) lists every buffer of the
+    block: each module's, each operator's own and each of its channels', the world's, ...
+    once, by offset, none overlapping the next (inspection has an operator with channels)."""
+    (system,) = compile_paths([SPECS / "inspection"], analyse=False).systems
+    layout = system.layout
+    assert layout.operators and all(o.channels for o in layout.operators.values())
+    listed = layout.all_buffers()
+    assert sorted(map(id, listed)) == sorted(map(id, _buffers(layout)))
+    assert len({id(b) for b in listed}) == len(listed)
+    for before, after in itertools.pairwise(listed):
+        assert before.offset + before.size <= after.offset, (before.const, after.const)
