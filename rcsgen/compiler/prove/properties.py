@@ -13,6 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ..diagnostics import Span, counted
+from ..expressions import RefKind
 from .adapter import DONE, ERROR, EXECUTING, RuleView, Skeleton
 from .model import NOP, Edge, Graph, State
 
@@ -427,7 +428,8 @@ def _loops(graph: Graph, states: list[State], good: set[State]) -> list[_Loop]:
 
 
 # what a guard reads that changes without the world: time, counters, hooks' results, locals
-_CHANGING = {"time", "held", "local", "sub_result", "plan", "let"}
+# (a `let` value is never read as such: reads_of inlines it, so its own reads count)
+_CHANGING = frozenset({RefKind.TIME, RefKind.HELD, RefKind.LOCAL, RefKind.SUB_RESULT, RefKind.PLAN})
 
 
 def _exit_text(sk: Skeleton, rule_id: str) -> str:
@@ -450,7 +452,7 @@ def _world_deadlock(
     waited: set[str] = set()
     for rule_id in loop.exits:
         rule = rule_view(sk, rule_id)
-        world = {name for kind, name in rule.reads if kind == "world"}
+        world = {name for kind, name in rule.reads if kind == RefKind.WORLD}
         if not world or any(kind in _CHANGING for kind, _ in rule.reads):
             return None
         for s in loop.states:
