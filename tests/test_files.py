@@ -373,3 +373,12 @@ def test_unwritable_parent_of_a_new_output_directory_is_e306(system: Path) -> No
         "locked:1:1: error[E306]: cannot write in `locked`: permission denied (read-only?)"
     ]
     assert list(parent.iterdir()) == []
+
+
+def test_a_manifest_with_a_byte_that_is_not_utf8_is_read_with_it_replaced(tmp_path: Path) -> None:
+    """A manifest damaged by hand (a byte that is not UTF-8) still says which files rcsgen
+    wrote: the others are read as written, the bad byte as U+FFFD - no traceback."""
+    from rcsgen.compiler.back_end.write import MANIFEST, MARKER, read_manifest
+
+    (tmp_path / MANIFEST).write_bytes(MARKER.encode() + b"\nplant.py\nbad\xff.py\n")
+    assert read_manifest(tmp_path) == {"plant.py", "bad\ufffd.py"}
