@@ -301,6 +301,13 @@ CASES = {
     "motion_after_halt": (TINY_SYSTEM, TINY_SUB, TOP + MOTION_AFTER_HALT),
     "stale_done": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE),
     "stale_done_next": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE_NEXT),
+    # stale_done on the second of two subordinates, the first never commanded: W707 still
+    "stale_done_second_sub": (
+        PAIR_SYSTEM,
+        TINY_SUB,
+        TOP.replace("[sub]", "[sub, sub2]") + STALE_DONE.replace("sub.", "sub2."),
+        TINY_SUB.replace("controller: sub", "controller: sub2"),
+    ),
     "no_echo": (TINY_SYSTEM, TINY_SUB, TOP + NO_ECHO),
     "left_wait": (TINY_SYSTEM, TINY_SUB, TOP.replace("commands:", READS_POS) + LEFT_WAIT),
     "sub_before_top": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS),
