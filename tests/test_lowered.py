@@ -288,3 +288,25 @@ def test_the_layouts_buffer_list_holds_each_of_its_buffers_once_in_block_order()
     assert len({id(b) for b in listed}) == len(listed)
     for before, after in itertools.pairwise(listed):
         assert before.offset + before.size <= after.offset, (before.const, after.const)
+
+
+def test_an_operator_module_imports_its_own_buffers_from_the_layout() -> None:
+    """module_io.operator_io: an operator module imports its mode and perf offsets and each
+    client's command, status and answer offsets; with results (ood's), the status and answer
+    records' own structs too - each a buffer the layout has (submarine: eoow and ood)."""
+    (system,) = compile_paths([SPECS / "submarine"], analyse=False).systems
+    operators = {c.name: c for c in system.controllers if c.is_operator}
+    consts = {b.const for b in system.layout.all_buffers()}
+    for c in operators.values():
+        assert c.io is not None
+        assert {name.removesuffix("_AT") for name in c.io.imports} <= consts
+    ood = operators["ood"].io
+    assert ood is not None and ood.imports == (
+        "OOD_MODE_AT",
+        "OOD_PERF_AT",
+        "OOD_SM_ANSWER",
+        "OOD_SM_ANSWER_AT",
+        "OOD_SM_COMMAND_AT",
+        "OOD_SM_STATUS",
+        "OOD_SM_STATUS_AT",
+    )
