@@ -310,3 +310,40 @@ def test_an_operator_module_imports_its_own_buffers_from_the_layout() -> None:
         "OOD_SM_STATUS",
         "OOD_SM_STATUS_AT",
     )
+
+
+def test_a_report_passes_a_subordinates_reason_up_or_gives_its_own_or_none(lowered) -> None:
+    """`report: ERROR, reason: dev.reason` names dev and maps each of dev's reasons to top's
+    (no constant of its own: the template sets error_num from dev's); `reason: BLOCKED` is
+    its own constant; a plain `report: DONE` carries no reason at all."""
+    go, run = lowered["top"].commands[-1], lowered["dev"].commands[-1]
+    passed_up, done = (r.actions for r in go.states[1].rules)
+    assert passed_up == (
+        ir.IRReport(
+            "ERROR",
+            reason="",
+            reason_name="dev.reason",
+            reason_of="dev",
+            reason_map=(
+                ("DEV_REASON_LOST", "REASON_LOST"),
+                ("DEV_REASON_WORN", "REASON_WORN"),
+                ("DEV_REASON_BLOCKED", "REASON_BLOCKED"),
+            ),
+            reason_of_attribute="self.dev_error_num",
+        ),
+    )
+    assert done == (
+        ir.IRReport(
+            "DONE", reason_name="", reason="", reason_of="", reason_map=(), reason_of_attribute=""
+        ),
+    )
+    assert run.states[0].rules[0].actions == (
+        ir.IRReport(
+            "ERROR",
+            reason_name="BLOCKED",
+            reason="REASON_BLOCKED",
+            reason_of="",
+            reason_map=(),
+            reason_of_attribute="",
+        ),
+    )
