@@ -342,8 +342,8 @@ class IRReport:
     """`report: DONE` or `report: ERROR`, with a reason of its own or one passed up."""
 
     status: str  # DONE or ERROR
+    reason_name: str  # as the spec names it (REFUSED, or fx.reason when passed up; '' none)
     reason: str = ""  # the reason's constant (REASON_REFUSED), '' when none is given
-    reason_name: str = ""  # as the spec names it (REFUSED, or fx.reason when passed up)
     reason_of: str = ""  # the subordinate whose reason is passed up, by name (fx)
     # with reason_of: its reason constants -> this controller's (FX_REASON_REFUSED,
     # REASON_REFUSED); any other code it reports is passed up as NONE
