@@ -658,6 +658,7 @@ class IRSystem:
     processes: tuple[IRProcess, ...]
     layout: Layout
     sources: tuple[str, ...]  # every spec file the system was built from
+    name_span: Span  # where `system:` names it
     # role -> module -> index in ACCESS_LEVELS, above monitor; empty: no access control
     access: dict[str, dict[str, int]] = field(default_factory=dict)
     # role -> (its users, its groups), for the roles that name who holds them
@@ -667,7 +668,6 @@ class IRSystem:
     # each actuator world field -> the process whose modules write it (the first by name when
     # several do): who latches it safe when it stops (rcs/override.py)
     actuated_by: dict[str, str] = field(default_factory=dict)
-    name_span: Span = field(default_factory=lambda: Span("?"))  # where `system:` names it
     # The run settings its hook-state factories read (name, doc); None: not declared (any
     # setting is taken when a controller has a factory, none otherwise)
     settings: tuple[tuple[str, str], ...] | None = None
