@@ -459,12 +459,12 @@ class IRCommand:
     states: tuple[IRState, ...]
     generated: bool
     span: Span
-    first_match: tuple[str, ...] = ()  # states whose rules may overlap: the earlier wins
-    timed: bool = False  # a rule waits (`after:`/`for:`): the method keeps `ticks` up to date
-    lets: tuple[tuple[str, IRExpr], ...] = ()  # its named values, computed first each cycle
-    results: tuple[IRParam, ...] = ()  # the results it declares
-    reasons: tuple[str, ...] = ()  # the reasons it declares
-    text: str = ""  # an operator module's task: the instruction the screen shows
+    first_match: tuple[str, ...]  # states whose rules may overlap: the earlier wins
+    timed: bool  # a rule waits (`after:`/`for:`): the method keeps `ticks` up to date
+    lets: tuple[tuple[str, IRExpr], ...]  # its named values, computed first each cycle
+    results: tuple[IRParam, ...]  # the results it declares
+    reasons: tuple[str, ...]  # the reasons it declares
+    text: str  # an operator module's task: the instruction the screen shows ('' none)
 
 
 @dataclass(frozen=True)
