@@ -382,3 +382,27 @@ def test_a_manifest_with_a_byte_that_is_not_utf8_is_read_with_it_replaced(tmp_pa
 
     (tmp_path / MANIFEST).write_bytes(MARKER.encode() + b"\nplant.py\nbad\xff.py\n")
     assert read_manifest(tmp_path) == {"plant.py", "bad\ufffd.py"}
+
+
+def test_check_shows_a_changed_a_new_and_a_deleted_file_as_one_unified_diff(
+    tmp_path: Path,
+) -> None:
+    """`build --check`'s diff (write.unified_diff), relative to the output directory: a
+    changed file against what it holds, a new one from /dev/null, a stale one (to be
+    deleted) to /dev/null, each file once, in that order."""
+    from rcsgen.compiler.back_end.write import Plan, unified_diff
+
+    (tmp_path / "duo").mkdir()
+    changed, new, stale = (tmp_path / "duo" / n for n in ("a.py", "b.py", "old.py"))
+    stale.write_bytes(b"gone = 1\n")
+    plan = Plan(
+        write={changed: "x = 2\n", new: "y = 1\n"},
+        delete=[stale],
+        unchanged=0,
+        old={changed: b"x = 1\n"},
+    )
+    assert unified_diff(plan, tmp_path) == (
+        "--- a/duo/a.py\n+++ b/duo/a.py\n@@ -1 +1 @@\n-x = 1\n+x = 2\n"
+        "--- /dev/null\n+++ b/duo/b.py\n@@ -0,0 +1 @@\n+y = 1\n"
+        "--- a/duo/old.py\n+++ /dev/null\n@@ -1 +0,0 @@\n-gone = 1\n"
+    )
