@@ -330,7 +330,7 @@ def test_a_failed_write_is_undone(system: Path, monkeypatch: pytest.MonkeyPatch)
         calls.append(dst)
         if len(calls) == 3:
             raise OSError(28, "No space left on device")
-        real(src, dst)  # type: ignore[arg-type]
+        real(src, dst)
 
     monkeypatch.setattr(os, "replace", failing)
     result = rcsgen("build", "sys", "-o", "out")
@@ -406,3 +406,46 @@ def test_check_shows_a_changed_a_new_and_a_deleted_file_as_one_unified_diff(
         "--- /dev/null\n+++ b/duo/b.py\n@@ -0,0 +1 @@\n+y = 1\n"
         "--- a/duo/old.py\n+++ /dev/null\n@@ -1 +0,0 @@\n-gone = 1\n"
     )
+
+
+def test_a_write_the_disk_refuses_is_e306_and_the_build_is_taken_back_whole(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """write.apply puts each written file in place, then moves stale ones aside; when the
+    disk refuses a step (here: putting the second file in place, EACCES) everything done is
+    taken back - the first file's old text, the stale file, no temporary left - and E306
+    says where and why, word for word."""
+    import errno
+
+    from rcsgen.compiler.back_end import write
+    from rcsgen.compiler.diagnostics import SpecError
+
+    out = tmp_path / "duo"
+    out.mkdir()
+    first, second, stale = (out / n for n in ("a.py", "b.py", "old.py"))
+    first.write_text("a = 1\n")
+    stale.write_text("gone = 1\n")
+    plan = write.Plan(
+        write={first: "a = 2\n", second: "b = 1\n"},
+        delete=[stale],
+        unchanged=0,
+        old={first: b"a = 1\n"},
+    )
+    real = os.replace
+
+    def refusing(src: object, dst: object) -> None:
+        if Path(str(dst)) == second:
+            raise PermissionError(errno.EACCES, "Permission denied")
+        real(src, dst)
+
+    monkeypatch.setattr(write.os, "replace", refusing)
+    with pytest.raises(SpecError) as refused:
+        write.apply(plan)
+    (said,) = refused.value.diagnostics.items
+    assert (said.code, said.span.file, said.message) == (
+        "E306",
+        str(second),
+        f"cannot write `{second}`: permission denied (read-only?); nothing was changed",
+    )
+    assert sorted(p.name for p in out.iterdir()) == ["a.py", "old.py"]
+    assert (first.read_text(), stale.read_text()) == ("a = 1\n", "gone = 1\n")
