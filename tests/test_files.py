@@ -449,3 +449,24 @@ def test_a_write_the_disk_refuses_is_e306_and_the_build_is_taken_back_whole(
     )
     assert sorted(p.name for p in out.iterdir()) == ["a.py", "old.py"]
     assert (first.read_text(), stale.read_text()) == ("a = 1\n", "gone = 1\n")
+
+
+def test_a_stale_file_is_found_in_every_built_system_after_one_not_built_yet(
+    tmp_path: Path,
+) -> None:
+    """write.plan_outputs looks for stale files system by system: one whose folder does not
+    exist yet (built for the first time) is passed over, and a later system's file its
+    manifest lists and the build no longer makes is deleted."""
+    from rcsgen.compiler.back_end.write import MANIFEST, MARKER, plan_outputs
+    from rcsgen.compiler.diagnostics import Diagnostics
+
+    (tmp_path / "b").mkdir()
+    stale = tmp_path / "b" / "old.py"
+    stale.write_text(f"{MARKER}\n")
+    (tmp_path / "b" / MANIFEST).write_text(f"{MARKER}\nold.py\n")
+    files = {"a/x.py": f"{MARKER}\n", "b/y.py": f"{MARKER}\n"}
+    diags = Diagnostics()
+    plan = plan_outputs(files, tmp_path, ["a", "b"], diags)
+    assert not diags.items
+    assert plan.delete == [stale]
+    assert sorted(plan.write) == [tmp_path / "a" / "x.py", tmp_path / "b" / "y.py"]
