@@ -261,6 +261,26 @@ def test_every_dataclass_of_the_ir_is_frozen() -> None:
     ]
     assert len(classes) > 30
     assert [c.__name__ for c in classes if not c.__dataclass_params__.frozen] == []
+    # and every IR object a build makes, walked from the system down (inspection: operators,
+    # plans, hooks, world and I/O), is of a frozen class
+    (system,) = compile_paths([SPECS / "inspection"], analyse=False).systems
+    seen: set[int] = set()
+    kinds: set[str] = set()
+    todo: list[object] = [system]
+    while todo:
+        value = todo.pop()
+        if id(value) in seen:
+            continue
+        seen.add(id(value))
+        if isinstance(value, dict):
+            todo += [*value.keys(), *value.values()]
+        elif isinstance(value, (list, tuple)):
+            todo += value
+        elif dataclasses.is_dataclass(value) and type(value).__module__ == ir.__name__:
+            assert type(value).__dataclass_params__.frozen, type(value).__name__
+            kinds.add(type(value).__name__)
+            todo += [getattr(value, f.name) for f in dataclasses.fields(value)]
+    assert {"IRSystem", "IRController", "IRCommand", "IRRule", "Layout", "Buffer"} <= kinds
 
 
 def _buffers(value: object) -> list[ir.Buffer]:
