@@ -88,3 +88,31 @@ def test_the_block_words_a_module_stores_are_named_in_lowering() -> None:
         assert all(at.removesuffix("_AT") + "_WORD" == w for w, at in each.stored_words)
     template = (REPO / "templates" / "controller.py.j2").read_text(encoding="utf-8")
     assert "_WORD" not in template.replace("SEQ_WORDS", "")
+
+
+def test_the_layout_lists_every_enumeration_field_of_every_module_and_the_world(
+    tmp_path: Path,
+) -> None:
+    """The layout module's table of enumeration fields (what a trace and the console show
+    by name): each module's enumeration parameters and results, then the world's, in the
+    system's order - every module's, not only the last one's."""
+    from test_lowered import DEV, SYSTEM, TOP, compiled_systems
+
+    from rcsgen.compiler.back_end.emit import _enum_fields
+
+    system = SYSTEM.replace(
+        "  level: {type: float, initial: 0.0, doc: Sensed level.}\n",
+        "  level: {type: float, initial: 0.0, doc: Sensed level.}\n"
+        "  gate: {type: enum, values: [SHUT, OPEN], initial: SHUT, doc: The gate.}\n",
+    )
+    top = TOP.replace(
+        "    reasons: [REFUSED, WORN, BLOCKED]\n",
+        "    reasons: [REFUSED, WORN, BLOCKED]\n"
+        "    results:\n      grade: {type: enum, values: [LOW, HIGH], doc: How it went.}\n",
+    )
+    (lowered,) = compiled_systems(tmp_path, system=system, top=top, dev=DEV)
+    assert _enum_fields(lowered) == [
+        ("top", "result_grade", ("LOW", "HIGH")),
+        ("dev", "arg_how", ("IDLE", "SLOW", "FAST", "JAMMED")),
+        ("", "gate", ("SHUT", "OPEN")),
+    ]

@@ -330,7 +330,7 @@ def test_a_failed_write_is_undone(system: Path, monkeypatch: pytest.MonkeyPatch)
         calls.append(dst)
         if len(calls) == 3:
             raise OSError(28, "No space left on device")
-        real(src, dst)  # type: ignore[arg-type]
+        real(src, dst)
 
     monkeypatch.setattr(os, "replace", failing)
     result = rcsgen("build", "sys", "-o", "out")
@@ -565,3 +565,113 @@ def test_a_directory_without_a_system_is_e224_saying_what_one_holds(
             "a system directory holds system.yaml and one <mnemonic>.yaml per controller",
         )
     ]
+
+
+def test_a_manifest_with_a_byte_that_is_not_utf8_is_read_with_it_replaced(tmp_path: Path) -> None:
+    """A manifest damaged by hand (a byte that is not UTF-8) still says which files rcsgen
+    wrote: the others are read as written, the bad byte as U+FFFD - no traceback."""
+    from rcsgen.compiler.back_end.write import MANIFEST, MARKER, read_manifest
+
+    (tmp_path / MANIFEST).write_bytes(MARKER.encode() + b"\nplant.py\nbad\xff.py\n")
+    assert read_manifest(tmp_path) == {"plant.py", "bad\ufffd.py"}
+
+
+def test_check_shows_a_changed_a_new_and_a_deleted_file_as_one_unified_diff(
+    tmp_path: Path,
+) -> None:
+    """`build --check`'s diff (write.unified_diff), relative to the output directory: a
+    changed file against what it holds, a new one from /dev/null, a stale one (to be
+    deleted) to /dev/null, each file once, in that order."""
+    from rcsgen.compiler.back_end.write import Plan, unified_diff
+
+    (tmp_path / "duo").mkdir()
+    changed, new, stale = (tmp_path / "duo" / n for n in ("a.py", "b.py", "old.py"))
+    stale.write_bytes(b"gone = 1\n")
+    plan = Plan(
+        write={changed: "x = 2\n", new: "y = 1\n"},
+        delete=[stale],
+        unchanged=0,
+        old={changed: b"x = 1\n"},
+    )
+    assert unified_diff(plan, tmp_path) == (
+        "--- a/duo/a.py\n+++ b/duo/a.py\n@@ -1 +1 @@\n-x = 1\n+x = 2\n"
+        "--- /dev/null\n+++ b/duo/b.py\n@@ -0,0 +1 @@\n+y = 1\n"
+        "--- a/duo/old.py\n+++ /dev/null\n@@ -1 +0,0 @@\n-gone = 1\n"
+    )
+
+
+def test_a_write_the_disk_refuses_is_e306_and_the_build_is_taken_back_whole(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """write.apply puts each written file in place, then moves stale ones aside; when the
+    disk refuses a step (here: putting the second file in place, EACCES) everything done is
+    taken back - the first file's old text, the stale file, no temporary left - and E306
+    says where and why, word for word."""
+    import errno
+
+    from rcsgen.compiler.back_end import write
+    from rcsgen.compiler.diagnostics import SpecError
+
+    out = tmp_path / "duo"
+    out.mkdir()
+    first, second, stale = (out / n for n in ("a.py", "b.py", "old.py"))
+    first.write_text("a = 1\n")
+    stale.write_text("gone = 1\n")
+    plan = write.Plan(
+        write={first: "a = 2\n", second: "b = 1\n"},
+        delete=[stale],
+        unchanged=0,
+        old={first: b"a = 1\n"},
+    )
+    real = os.replace
+
+    def refusing(src: object, dst: object) -> None:
+        if Path(str(dst)) == second:
+            raise PermissionError(errno.EACCES, "Permission denied")
+        real(src, dst)
+
+    monkeypatch.setattr(write.os, "replace", refusing)
+    with pytest.raises(SpecError) as refused:
+        write.apply(plan)
+    (said,) = refused.value.diagnostics.items
+    assert (said.code, said.span.file, said.message) == (
+        "E306",
+        str(second),
+        f"cannot write `{second}`: permission denied (read-only?); nothing was changed",
+    )
+    assert sorted(p.name for p in out.iterdir()) == ["a.py", "old.py"]
+    assert (first.read_text(), stale.read_text()) == ("a = 1\n", "gone = 1\n")
+
+
+def test_a_stale_file_is_found_in_every_built_system_after_one_not_built_yet(
+    tmp_path: Path,
+) -> None:
+    """write.plan_outputs looks for stale files system by system: one whose folder does not
+    exist yet (built for the first time) is passed over, and a later system's file its
+    manifest lists and the build no longer makes is deleted."""
+    from rcsgen.compiler.back_end.write import MANIFEST, MARKER, plan_outputs
+    from rcsgen.compiler.diagnostics import Diagnostics
+
+    (tmp_path / "b").mkdir()
+    stale = tmp_path / "b" / "old.py"
+    stale.write_text(f"{MARKER}\n")
+    (tmp_path / "b" / MANIFEST).write_text(f"{MARKER}\nold.py\n")
+    files = {"a/x.py": f"{MARKER}\n", "b/y.py": f"{MARKER}\n"}
+    diags = Diagnostics()
+    plan = plan_outputs(files, tmp_path, ["a", "b"], diags)
+    assert not diags.items
+    assert plan.delete == [stale]
+    assert sorted(plan.write) == [tmp_path / "a" / "x.py", tmp_path / "b" / "y.py"]
+
+
+def test_a_generated_page_is_told_by_its_html_comment_header(tmp_path: Path) -> None:
+    """write.is_generated: a Markdown page rcsgen writes (docs/reference) starts with the
+    header as an HTML comment, a module with it as a Python comment; a page that only
+    mentions it further down is not rcsgen's."""
+    from rcsgen.compiler.back_end.write import is_generated
+
+    page, module, other = (tmp_path / n for n in ("a.md", "a.py", "b.md"))
+    page.write_text("<!-- Generated by rcsgen from specs/duo -->\n# duo\n")
+    module.write_text("# Generated by rcsgen from specs/duo\n")
+    other.write_text("# duo\n<!-- Generated by rcsgen -->\n")
+    assert [is_generated(p) for p in (page, module, other)] == [True, True, False]

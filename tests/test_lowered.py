@@ -8,6 +8,9 @@ every_cycle rules raise `world_set`. One small system of two controllers, in pro
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
+import itertools
 from pathlib import Path
 
 import pytest
@@ -238,3 +241,153 @@ def test_a_rules_time_is_shown_as_written_and_in_cycles_one_cycle_singular(
         "self.dev_status == ERROR and self.ticks >= 1",
         "self.held_go_s1_2 > 1 and self.ticks >= 3",
     ]
+
+
+def test_a_rule_whose_guard_reads_a_subordinates_error_names_it_as_the_cause(lowered) -> None:
+    """`dev.status == ERROR` in a guard makes dev the rule's cause (its reason is passed up,
+    docs/semantics.md "Reasons survive"); `dev.status == DONE` names no cause."""
+    go = lowered["top"].commands[-1]
+    assert go.name == "GO"
+    assert [(r.guard.text if r.guard else None, r.cause_of) for r in go.states[1].rules] == [
+        ("dev.status == ERROR", "dev"),
+        ("dev.status == DONE", ""),
+    ]
+
+
+@pytest.mark.parametrize(("period", "deadline"), [(0.1, 1.0), (0.5, 2.5)])
+def test_a_hook_that_declares_no_deadline_gets_five_periods_and_at_least_a_second(
+    tmp_path: Path, period: float, deadline: float
+) -> None:
+    """docs/spec.md, a hook's `deadline`: 5 cycle periods of its process, at least 1 s."""
+    dev = DEV.replace(
+        "predicates:\n",
+        "hooks_module: pair_hooks\nhooks:\n  gauge:\n    doc: Read the gauge.\n"
+        "    args: []\n    returns: [mode]\npredicates:\n",
+    )
+    dev = dev.replace("[set: {mode: FAST}, report: DONE]", "[call: gauge, report: DONE]")
+    (tmp_path / "pair_hooks.py").write_text("def gauge():\n    return 1\n")
+    system = SYSTEM.replace("cycle_period: 0.1", f"cycle_period: {period}")
+    assert compiled(tmp_path, system=system, dev=dev)["dev"].hook_calls == (
+        ("gauge", deadline, "e4"),
+    )
+
+
+SPECS = Path(__file__).resolve().parent.parent / "specs"
+
+
+def test_every_dataclass_of_the_ir_is_frozen() -> None:
+    """docs/architecture.md: the IR is frozen dataclasses; the back end and the tools only
+    read it, and a value one of them changed would change every later reader's output."""
+    classes = [
+        c
+        for _, c in inspect.getmembers(ir, inspect.isclass)
+        if c.__module__ == ir.__name__ and dataclasses.is_dataclass(c)
+    ]
+    assert len(classes) > 30
+    assert [c.__name__ for c in classes if not c.__dataclass_params__.frozen] == []
+    # and every IR object a build makes, walked from the system down (inspection: operators,
+    # plans, hooks, world and I/O), is of a frozen class
+    (system,) = compile_paths([SPECS / "inspection"], analyse=False).systems
+    seen: set[int] = set()
+    kinds: set[str] = set()
+    todo: list[object] = [system]
+    while todo:
+        value = todo.pop()
+        if id(value) in seen:
+            continue
+        seen.add(id(value))
+        if isinstance(value, dict):
+            todo += [*value.keys(), *value.values()]
+        elif isinstance(value, (list, tuple)):
+            todo += value
+        elif dataclasses.is_dataclass(value) and type(value).__module__ == ir.__name__:
+            assert type(value).__dataclass_params__.frozen, type(value).__name__
+            kinds.add(type(value).__name__)
+            todo += [getattr(value, f.name) for f in dataclasses.fields(value)]
+    assert {"IRSystem", "IRController", "IRCommand", "IRRule", "Layout", "Buffer"} <= kinds
+
+
+def _buffers(value: object) -> list[ir.Buffer]:
+    """Every Buffer held anywhere in a layout's fields."""
+    if isinstance(value, ir.Buffer):
+        return [value]
+    if isinstance(value, dict):
+        value = list(value.values())
+    elif dataclasses.is_dataclass(value):
+        value = [getattr(value, f.name) for f in dataclasses.fields(value)]
+    if isinstance(value, (list, tuple)):
+        return [b for v in value for b in _buffers(v)]
+    return []
+
+
+def test_the_layouts_buffer_list_holds_each_of_its_buffers_once_in_block_order() -> None:
+    """all_buffers (the layout's hash, the layout module's table) lists every buffer of the
+    block: each module's, each operator's own and each of its channels', the world's, ...
+    once, by offset, none overlapping the next (inspection has an operator with channels)."""
+    (system,) = compile_paths([SPECS / "inspection"], analyse=False).systems
+    layout = system.layout
+    assert layout.operators and all(o.channels for o in layout.operators.values())
+    listed = layout.all_buffers()
+    assert sorted(map(id, listed)) == sorted(map(id, _buffers(layout)))
+    assert len({id(b) for b in listed}) == len(listed)
+    for before, after in itertools.pairwise(listed):
+        assert before.offset + before.size <= after.offset, (before.const, after.const)
+
+
+def test_an_operator_module_imports_its_own_buffers_from_the_layout() -> None:
+    """module_io.operator_io: an operator module imports its mode and perf offsets and each
+    client's command, status and answer offsets; with results (ood's), the status and answer
+    records' own structs too - each a buffer the layout has (submarine: eoow and ood)."""
+    (system,) = compile_paths([SPECS / "submarine"], analyse=False).systems
+    operators = {c.name: c for c in system.controllers if c.is_operator}
+    consts = {b.const for b in system.layout.all_buffers()}
+    for c in operators.values():
+        assert c.io is not None
+        assert {name.removesuffix("_AT") for name in c.io.imports} <= consts
+    ood = operators["ood"].io
+    assert ood is not None and ood.imports == (
+        "OOD_MODE_AT",
+        "OOD_PERF_AT",
+        "OOD_SM_ANSWER",
+        "OOD_SM_ANSWER_AT",
+        "OOD_SM_COMMAND_AT",
+        "OOD_SM_STATUS",
+        "OOD_SM_STATUS_AT",
+    )
+
+
+def test_a_report_passes_a_subordinates_reason_up_or_gives_its_own_or_none(lowered) -> None:
+    """`report: ERROR, reason: dev.reason` names dev and maps each of dev's reasons to top's
+    (no constant of its own: the template sets error_num from dev's); `reason: BLOCKED` is
+    its own constant; a plain `report: DONE` carries no reason at all."""
+    go, run = lowered["top"].commands[-1], lowered["dev"].commands[-1]
+    passed_up, done = (r.actions for r in go.states[1].rules)
+    assert passed_up == (
+        ir.IRReport(
+            "ERROR",
+            reason="",
+            reason_name="dev.reason",
+            reason_of="dev",
+            reason_map=(
+                ("DEV_REASON_LOST", "REASON_LOST"),
+                ("DEV_REASON_WORN", "REASON_WORN"),
+                ("DEV_REASON_BLOCKED", "REASON_BLOCKED"),
+            ),
+            reason_of_attribute="self.dev_error_num",
+        ),
+    )
+    assert done == (
+        ir.IRReport(
+            "DONE", reason_name="", reason="", reason_of="", reason_map=(), reason_of_attribute=""
+        ),
+    )
+    assert run.states[0].rules[0].actions == (
+        ir.IRReport(
+            "ERROR",
+            reason_name="BLOCKED",
+            reason="REASON_BLOCKED",
+            reason_of="",
+            reason_map=(),
+            reason_of_attribute="",
+        ),
+    )

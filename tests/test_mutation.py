@@ -550,3 +550,31 @@ def test_a_kill_is_told_apart_by_the_part_of_the_selection_that_made_it() -> Non
         "--reach added, 1 by a timeout or a broken collection (either way)\n"
         "  by --reach: m.py:2:a->b  (tests/test_b.py::far)"
     )
+
+
+def test_a_first_test_over_the_budget_alone_runs_after_the_quick_tests_that_fit() -> None:
+    """A slow test that runs most of the module comes first in the order; alone over the
+    budget, it used to be the whole selection, leaving the line's quick tests untried. It
+    still runs (no kill lost), after the tests that fit in the budget."""
+    cover_map = {
+        "tests": [
+            ["tests/test_seeds.py::every_system", 100.0, True],
+            ["tests/test_a.py::one", 0.1, True],
+            ["tests/test_b.py::two", 0.2, True],
+            ["tests/test_c.py::three", 20.0, True],
+        ],
+        "lines": {"pkg/m.py": {"7": [0, 1, 2, 3], "8": [0], "9": [0]}},
+    }
+    m = mutation_sample.Mutant("pkg/m.py", 7, 7, "compare", "x < b", "(x <= b)", (7, 4), (7, 9))
+    assert mutation_sample.selection(m, cover_map, 10) == [
+        "tests/test_a.py::one",
+        "tests/test_b.py::two",
+        "tests/test_seeds.py::every_system",
+    ]
+    # a first test within the budget is still taken first, as before
+    cover_map["tests"][0][1] = 5.0
+    assert mutation_sample.selection(m, cover_map, 10) == [
+        "tests/test_seeds.py::every_system",
+        "tests/test_a.py::one",
+        "tests/test_b.py::two",
+    ]

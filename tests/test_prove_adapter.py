@@ -238,3 +238,15 @@ def test_what_a_hook_returns_into_is_written_with_a_value_prove_cannot_follow(
     done = rule(top, "GO", "S1", 0)
     assert done.actuators == (("level", False),)  # 2.5, not its safe 0.0
     assert top.actuators == ("level",)
+
+
+def test_the_table_rule_of_a_cycle_is_told_from_its_every_cycle_rules() -> None:
+    """An edge's rules are RuleId texts, the every_cycle rules first: table_rules keeps the
+    table's (a command's state's rule), is_every_cycle tells them apart by the id alone."""
+    from rcsgen.compiler.checks.tables import RuleId
+    from rcsgen.compiler.prove.adapter import is_every_cycle, table_rules
+
+    every, table = str(RuleId(None, None, 2)), str(RuleId("EVERY_CYCLE", "S1", 1))
+    assert [is_every_cycle(r) for r in (every, table)] == [True, False]
+    assert table_rules((every, table)) == [table]
+    assert table_rules((every,)) == []

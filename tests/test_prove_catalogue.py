@@ -301,6 +301,13 @@ CASES = {
     "motion_after_halt": (TINY_SYSTEM, TINY_SUB, TOP + MOTION_AFTER_HALT),
     "stale_done": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE),
     "stale_done_next": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE_NEXT),
+    # stale_done on the second of two subordinates, the first never commanded: W707 still
+    "stale_done_second_sub": (
+        PAIR_SYSTEM,
+        TINY_SUB,
+        TOP.replace("[sub]", "[sub, sub2]") + STALE_DONE.replace("sub.", "sub2."),
+        TINY_SUB.replace("controller: sub", "controller: sub2"),
+    ),
     "no_echo": (TINY_SYSTEM, TINY_SUB, TOP + NO_ECHO),
     "left_wait": (TINY_SYSTEM, TINY_SUB, TOP.replace("commands:", READS_POS) + LEFT_WAIT),
     "sub_before_top": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS),
@@ -367,3 +374,31 @@ def test_prove_says_each_finding_where_and_why(
 ) -> None:
     monkeypatch.chdir(tmp_path)
     assert proven(case) == (EXPECTED / f"{case}.txt").read_text()
+
+
+def test_a_state_left_on_an_interrupt_marks_the_wait_on_a_subordinate_still_executing_left(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """left_wait's model (model._leave): GO leaves S1 on world.pos while sub runs the MOVE
+    S1 waits on, and that wait is marked LEFT in S2 (its DONE will answer the abandoned
+    wait, W707)."""
+    from rcsgen.compiler.frontend import compile_paths
+    from rcsgen.compiler.prove.adapter import EXECUTING, skeleton
+    from rcsgen.compiler.prove.lost import RuntimeReaction
+    from rcsgen.compiler.prove.model import LEFT, Contract, Model, explore
+
+    monkeypatch.chdir(tmp_path)
+    for text in CASES["left_wait"]:
+        kind, name = text.split("\n", 1)[0].split(": ")
+        Path(f"{'system' if kind == 'system' else name}.yaml").write_text(text)
+    (system,) = compile_paths([tmp_path]).systems
+    top = next(c for c in system.controllers if c.name == "top")
+    sk = skeleton(system, top, frozenset())
+    graph = explore(Model(sk, {"sub": Contract({})}, RuntimeReaction(system)))
+    left = {
+        (s.subs[0][1], t.subs[0])
+        for s, edges in graph.edges.items()
+        for e, t in edges
+        if s.state == "S1" and t.state == "S2" and e.new is None
+    }
+    assert left == {(EXECUTING, ("MOVE", EXECUTING, LEFT))}

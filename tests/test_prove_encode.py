@@ -6,6 +6,7 @@ equality), a fresh value that is free both ways, so no run is called impossible 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from fractions import Fraction
 from types import SimpleNamespace
 from typing import Any
@@ -205,8 +206,9 @@ processes:
 
 
 @pytest.fixture(scope="module")
-def dial(tmp_path_factory: pytest.TempPathFactory) -> Graph:
-    """DIAL's explored model."""
+def dial_model(tmp_path_factory: pytest.TempPathFactory) -> Callable[[], Model]:
+    """DIAL's model, a new one each call (a Model lists a new command's edges once: one
+    exploration each)."""
     directory = tmp_path_factory.mktemp("dial")
     (directory / "system.yaml").write_text(DIAL_SYSTEM)
     (directory / "dial.yaml").write_text(DIAL)
@@ -214,7 +216,13 @@ def dial(tmp_path_factory: pytest.TempPathFactory) -> Graph:
     assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
     system = front.systems[0]
     sk = skeleton(system, system.controllers[0], frozenset({"lamp"}))
-    return explore(Model(sk, {}, RuntimeReaction(system)))
+    return lambda: Model(sk, {}, RuntimeReaction(system))
+
+
+@pytest.fixture(scope="module")
+def dial(dial_model: Callable[[], Model]) -> Graph:
+    """DIAL's explored model."""
+    return explore(dial_model())
 
 
 def test_a_witness_gives_the_parameters_read_later_on_the_cycle_that_brings_the_command(
@@ -276,3 +284,27 @@ def test_a_run_is_in_shortest_form_when_the_model_reaches_its_last_cycle_the_sho
     assert _shortest_form(graph, run)
     # the same cycles after another first cycle: not the model's way to the last one
     assert not _shortest_form(graph, [init, *run[1:]])
+
+
+def test_exploring_stops_at_the_state_limit_and_marks_the_model_incomplete(
+    dial_model: Callable[[], Model], dial: Graph
+) -> None:
+    """model.explore's `limit` is the most states a model may have (prove's `limit`, LIMIT):
+    at it exploration stops with exactly that many, breadth first, and the graph is marked
+    incomplete (what prove then calls undecided); a limit the model fits in keeps it whole."""
+    full = len(dial.parent)
+    assert dial.complete and full > 3
+    cut = explore(dial_model(), limit=3)
+    assert not cut.complete
+    assert list(cut.parent) == list(dial.parent)[:3]
+    whole = explore(dial_model(), limit=full)
+    assert whole.complete and list(whole.parent) == list(dial.parent)
+
+
+def test_a_cycle_with_no_rule_to_try_is_certain(dial: Graph) -> None:
+    """DIAL has no every_cycle rule and no table in NOP (before its first command, after a
+    report): that no rule fires there is certain, not only possible, so a finding whose run
+    passes such cycles stays certain (violated when acknowledged, not undecided)."""
+    idle = [e for s, edges in dial.edges.items() for e, _ in edges if s.state == "NOP"]
+    assert len([e for e in idle if not e.rules]) >= 3
+    assert all(e.certain for e in idle if not e.rules)

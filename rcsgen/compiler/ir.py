@@ -342,8 +342,8 @@ class IRReport:
     """`report: DONE` or `report: ERROR`, with a reason of its own or one passed up."""
 
     status: str  # DONE or ERROR
+    reason_name: str  # as the spec names it (REFUSED, or fx.reason when passed up; '' none)
     reason: str = ""  # the reason's constant (REASON_REFUSED), '' when none is given
-    reason_name: str = ""  # as the spec names it (REFUSED, or fx.reason when passed up)
     reason_of: str = ""  # the subordinate whose reason is passed up, by name (fx)
     # with reason_of: its reason constants -> this controller's (FX_REASON_REFUSED,
     # REASON_REFUSED); any other code it reports is passed up as NONE
@@ -459,12 +459,12 @@ class IRCommand:
     states: tuple[IRState, ...]
     generated: bool
     span: Span
-    first_match: tuple[str, ...] = ()  # states whose rules may overlap: the earlier wins
-    timed: bool = False  # a rule waits (`after:`/`for:`): the method keeps `ticks` up to date
-    lets: tuple[tuple[str, IRExpr], ...] = ()  # its named values, computed first each cycle
-    results: tuple[IRParam, ...] = ()  # the results it declares
-    reasons: tuple[str, ...] = ()  # the reasons it declares
-    text: str = ""  # an operator module's task: the instruction the screen shows
+    first_match: tuple[str, ...]  # states whose rules may overlap: the earlier wins
+    timed: bool  # a rule waits (`after:`/`for:`): the method keeps `ticks` up to date
+    lets: tuple[tuple[str, IRExpr], ...]  # its named values, computed first each cycle
+    results: tuple[IRParam, ...]  # the results it declares
+    reasons: tuple[str, ...]  # the reasons it declares
+    text: str  # an operator module's task: the instruction the screen shows ('' none)
 
 
 @dataclass(frozen=True)
@@ -658,6 +658,7 @@ class IRSystem:
     processes: tuple[IRProcess, ...]
     layout: Layout
     sources: tuple[str, ...]  # every spec file the system was built from
+    name_span: Span  # where `system:` names it
     # role -> module -> index in ACCESS_LEVELS, above monitor; empty: no access control
     access: dict[str, dict[str, int]] = field(default_factory=dict)
     # role -> (its users, its groups), for the roles that name who holds them
@@ -670,7 +671,6 @@ class IRSystem:
     # each process -> the buffers it writes into its own block, in layout order: what a
     # network transport sends from it (rcs/transport.py)
     writes: dict[str, tuple[Buffer, ...]] = field(default_factory=dict)
-    name_span: Span = field(default_factory=lambda: Span("?"))  # where `system:` names it
     # The run settings its hook-state factories read (name, doc); None: not declared (any
     # setting is taken when a controller has a factory, none otherwise)
     settings: tuple[tuple[str, str], ...] | None = None

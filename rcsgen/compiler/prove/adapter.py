@@ -25,6 +25,18 @@ from ..diagnostics import Span
 NOT_READY, EXECUTING, DONE, ERROR = "NOT_READY", "EXECUTING", "DONE", "ERROR"
 
 
+def is_every_cycle(rule_id: str) -> bool:
+    """Whether a rule id text (RuleId's: `every_cycle/1`, `GO/S1/2`) names an every_cycle
+    rule."""
+    return rule_id.startswith("every_cycle/")
+
+
+def table_rules(rules: tuple[str, ...]) -> list[str]:
+    """The table's rules among those that fired in one cycle (an edge's rules: the
+    every_cycle rules first, then the table rule, if any)."""
+    return [r for r in rules if not is_every_cycle(r)]
+
+
 def safe_value(field_: ir.IRWorldField) -> bool | int | float | str | None:
     """The value an actuator field is safe at, as the IR carries it (`safe:`, or its type's
     zero): the value the runtime latches it at when a process is lost (rcs/override.py)."""

@@ -20,14 +20,6 @@ from typing import Any
 EXTRA = "rcsgen[prove]"
 
 
-def available() -> bool:
-    try:
-        import z3  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def z3_or_none() -> Any:
     """The z3 module, or None without the extra (the prover's one import of it)."""
     try:
@@ -42,9 +34,8 @@ def prove_handshake(renumber: bool = True) -> tuple[bool | None, str]:
     transition breaks it, (None, why) when z3 is not installed. `renumber=False` proves
     the protocol without post_process's numbering after an operator's command (a test's
     seeded bug: it must fail)."""
-    try:
-        import z3
-    except ImportError:
+    z3 = z3_or_none()
+    if z3 is None:
         return None, f"the handshake invariant needs z3: install {EXTRA} (z3-solver)"
     b, w, sent, e, s = z3.Ints("buffer written sent echo status")
     b2, w2, sent2, e2, s2 = z3.Ints("buffer2 written2 sent2 echo2 status2")

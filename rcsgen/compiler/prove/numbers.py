@@ -28,7 +28,7 @@ from typing import Any
 from .. import expressions as expr
 from .. import types
 from ..analysis.tables import Atom
-from .adapter import RuleView, Skeleton
+from .adapter import RuleView, Skeleton, is_every_cycle, table_rules
 from .model import NOP, Edge, Graph, State
 from .properties import rule_view
 
@@ -94,12 +94,11 @@ class Encoder:
             self.params = {}  # a new command: its parameters, fixed until the next one
         world: dict[str, Any] = {}
         views = dict(zip(sk.subs, edge.views, strict=True))
-        out: list[Any] = []
         fired = list(edge.rules)
-        every = fired.pop(0) if fired and fired[0].startswith("every_cycle") else None
+        every = fired.pop(0) if fired and is_every_cycle(fired[0]) else None
         command = edge.new if edge.new is not None else before.command
         state, status = ("S0", "EXECUTING") if edge.new is not None else before[1:3]
-        out += self._table(sk.every, every, views, world)
+        out = self._table(sk.every, every, views, world)
         if every is not None and rule_view(sk, every).report:
             state = NOP
         if edge.safe_state or command is None or state == NOP or status != "EXECUTING":
@@ -445,7 +444,7 @@ def _alike(graph: Graph, start: State, cycle: tuple[Edge, State]) -> list[tuple[
     edge, after = cycle
 
     def key(e: Edge) -> tuple[Any, ...]:
-        table = tuple(r for r in e.rules if not r.startswith("every_cycle"))
+        table = tuple(table_rules(e.rules))
         return (e.new, e.answers, e.lost, e.recovered, e.reset, e.safe_state, table, e.report)
 
     same = [c for c in graph.edges.get(start, []) if c[1] == after and key(c[0]) == key(edge)]

@@ -13,7 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ..diagnostics import Span, counted
-from .adapter import DONE, ERROR, EXECUTING, RuleView, Skeleton
+from ..expressions import RefKind
+from .adapter import DONE, ERROR, EXECUTING, RuleView, Skeleton, is_every_cycle
 from .model import NOP, Edge, Graph, State
 
 INFINITE = sys.maxsize
@@ -49,7 +50,7 @@ def _rule_of(sk: Skeleton, rule_id: str) -> tuple[str | None, str | None, int, S
     """(command, state, index, span) of a rule id text; command and state are None for an
     every_cycle rule."""
     parts = rule_id.split("/")
-    if parts[0] == "every_cycle":
+    if is_every_cycle(rule_id):
         index = int(parts[1])
         return None, None, index, sk.every[index - 1].span
     command, state, index = parts[0], parts[1], int(parts[2])
@@ -62,7 +63,7 @@ def rule_view(sk: Skeleton, rule_id: str) -> RuleView:
     found = sk.views.get(rule_id)
     if found is None:
         parts = rule_id.split("/")
-        if parts[0] == "every_cycle":
+        if is_every_cycle(rule_id):
             found = sk.every[int(parts[1]) - 1]
         else:
             found = sk.tables[parts[0]][parts[1]][int(parts[2]) - 1]
@@ -427,7 +428,8 @@ def _loops(graph: Graph, states: list[State], good: set[State]) -> list[_Loop]:
 
 
 # what a guard reads that changes without the world: time, counters, hooks' results, locals
-_CHANGING = {"time", "held", "local", "sub_result", "plan", "let"}
+# (a `let` value is never read as such: reads_of inlines it, so its own reads count)
+_CHANGING = frozenset({RefKind.TIME, RefKind.HELD, RefKind.LOCAL, RefKind.SUB_RESULT, RefKind.PLAN})
 
 
 def _exit_text(sk: Skeleton, rule_id: str) -> str:
@@ -450,7 +452,7 @@ def _world_deadlock(
     waited: set[str] = set()
     for rule_id in loop.exits:
         rule = rule_view(sk, rule_id)
-        world = {name for kind, name in rule.reads if kind == "world"}
+        world = {name for kind, name in rule.reads if kind == RefKind.WORLD}
         if not world or any(kind in _CHANGING for kind, _ in rule.reads):
             return None
         for s in loop.states:
@@ -797,7 +799,7 @@ def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], 
     """The motion commands a table rule that fired leaves running although its guard reads
     their subordinate's status: it went on before the echo (not to report ERROR, not on
     another subordinate's ERROR, not re-commanding it)."""
-    if edge.new is not None or not edge.rules or edge.rules[-1].startswith("every_cycle"):
+    if edge.new is not None or not edge.rules or is_every_cycle(edge.rules[-1]):
         return []
     views = edge.views
     running = [

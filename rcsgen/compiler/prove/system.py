@@ -319,8 +319,8 @@ def _contracts_of(
     subs = {}
     for s in c.subordinates:
         merged: dict[str, set[str]] = {}
-        for name in (s.name, stand_in.get(s.name)):
-            for cmd, ends in contracts.get(name or "", Contract({})).outcomes.items():
+        for name in dict.fromkeys((s.name, stand_in.get(s.name, s.name))):
+            for cmd, ends in contracts.get(name, Contract({})).outcomes.items():
                 merged.setdefault(cmd, set()).update(ends)
         if s.echo_cycles:  # no echo in time reads as ERROR
             for either in merged.values():
@@ -405,7 +405,7 @@ def _unsafe_halt(sk: Skeleton, name: str, run: Run) -> Finding:
 
 def _error_swallowed(sk: Skeleton, sub: str, run: Run, command: str | None, state: str) -> Finding:
     """W705 at the state of `command` in which `sub`'s ERROR comes and is swallowed."""
-    span = sk.state_spans.get((command or "", state or "")) or sk.spans.get(
+    span = sk.state_spans.get((command or "", state)) or sk.spans.get(
         command or "", next(iter(sk.spans.values()))
     )
     return Finding(

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from .adapter import table_rules
 from .handshake import EXTRA, z3_or_none
 from .model import NOP, Edge, State
 from .properties import rule_view
@@ -27,10 +28,7 @@ Run = list[tuple[Edge, State]]
 def timed(sk: Any, trace: Run) -> bool:
     """Whether the run fires a `for:` rule (only such a run is asked about)."""
     return any(
-        rule_view(sk, r).hold is not None
-        for edge, _ in trace
-        for r in edge.rules
-        if not r.startswith("every_cycle")
+        rule_view(sk, r).hold is not None for edge, _ in trace for r in table_rules(edge.rules)
     )
 
 
@@ -52,7 +50,7 @@ def feasible(sk: Any, trace: Run) -> tuple[bool | None, str]:
         command = after.command if edge.new is not None else (before.command if before else None)
         state = "S0" if edge.new is not None else (before.state if before else NOP)
         table = sk.tables.get(command or "", {}).get(state, []) if not edge.safe_state else []
-        fired = [r for r in edge.rules if not r.startswith("every_cycle")]
+        fired = table_rules(edge.rules)
         fired_late += _cycle(z3, solver, counters, table, fired[-1] if fired else None, index)
         before = after
     if solver.check() == z3.unsat:

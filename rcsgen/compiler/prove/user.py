@@ -23,7 +23,7 @@ from collections.abc import Callable
 
 from .. import ir
 from ..ir import IRPropAtom, IRProperty, IRPropExpr, PropKind
-from .adapter import Skeleton
+from .adapter import Skeleton, table_rules
 from .model import LIMIT, Edge, Graph, State
 from .properties import Finding, _certain, _rule_of, rule_view
 
@@ -227,7 +227,7 @@ def _trigger(graph: Graph, prop: IRProperty, trace: list[tuple[Edge, State]]) ->
 def _finding(graph: Graph, prop: IRProperty, trace: list[tuple[Edge, State]]) -> Finding:
     sk = graph.skeleton
     edge, last = trace[-1]
-    table = [r for r in edge.rules if not r.startswith("every_cycle")] or list(edge.rules)
+    table = table_rules(edge.rules) or list(edge.rules)
     if (prop.whenever is None or prop.within == 0) and table:
         command, state, index, span = _rule_of(sk, table[-1])
         rule = f"rule {table[-1]} of {sk.name}"

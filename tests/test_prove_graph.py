@@ -1,0 +1,99 @@
+"""`rcsgen prove`'s graph algorithms on graphs made by hand, in the unit tier (no spec, no
+solver): the strongly connected components a command can go round in
+(rcsgen/compiler/prove/properties.py `_sccs`, which W702 and W703 read) and the worst-case
+cycles to a goal (`_worst`, every HALT and ERROR bound): a cycle spent waiting for a
+subordinate's answer is the subordinate's time, not the table's, and the bound goes on
+through the state's other edges."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rcsgen.compiler.prove.adapter import DONE, EXECUTING
+from rcsgen.compiler.prove.model import Edge, Graph, State
+from rcsgen.compiler.prove.properties import INFINITE, _sccs, _worst
+
+
+def state(name: str, subs: tuple[tuple[str | None, str, bool], ...] = ()) -> State:
+    return State("GO", name, EXECUTING, 0, subs)
+
+
+def edge(report: str | None = None, rules: tuple[str, ...] = ()) -> Edge:
+    return Edge(None, (), None, False, rules, (), report, (), (), True, (), ())
+
+
+def test_a_ring_of_three_states_is_one_component_and_a_tail_into_it_is_its_own() -> None:
+    """a -> b -> c -> a is one component however deep the walk goes before it closes;
+    d, which only leads into the ring, is a component alone."""
+    a, b, c, d = (state(n) for n in "abcd")
+    succ: dict[State, list[tuple[Edge, State]]] = {
+        d: [(edge(), a)],
+        a: [(edge(), b)],
+        b: [(edge(), c)],
+        c: [(edge(), a)],
+    }
+    found = sorted(sorted(s.state for s in component) for component in _sccs(succ))
+    assert found == [["a", "b", "c"], ["d"]]
+
+
+def _bound(graph: Graph, start: State) -> tuple[int, list[Any]]:
+    begin = state("begin")
+    graph.parent = {begin: None, start: (begin, edge())}
+    return _worst(
+        graph,
+        [(begin, edge(), start)],
+        lambda e: e.report == DONE,
+        lambda e: e.report is not None and e.report != DONE,
+    )
+
+
+def test_a_cycle_spent_waiting_for_a_subordinate_is_not_the_tables_and_its_other_edges_count() -> (
+    None
+):
+    """In S1 the controller waits for sub's answer to MOVE (a self-loop while sub executes)
+    or, the answer come, reports DONE: two cycles from the start, not INFINITE - the wait
+    is sub's time (its own bound), and the edge listed after it is still followed."""
+    waiting = state("S1", (("MOVE", EXECUTING, True),))
+    graph = Graph(None, waiting)  # type: ignore[arg-type]  # _worst reads no skeleton
+    graph.edges = {waiting: [(edge(), waiting), (edge(DONE, ("GO/S1/1",)), state("done"))]}
+    cycles, run = _bound(graph, waiting)
+    assert cycles == 2
+    assert [e.report for e, _ in run] == [None, DONE]
+    # the same self-loop while no subordinate is awaited is the table going round for ever
+    idle = state("S1")
+    graph.edges = {idle: [(edge(), idle), (edge(DONE), state("done"))]}
+    assert _bound(graph, idle)[0] == INFINITE
+
+
+def test_a_new_command_or_a_loss_is_no_cycle_of_the_table_and_its_other_edges_count() -> None:
+    """A bound counts the table's own cycles: an edge that brings a new command from above
+    or a lost process (listed first here) is not followed, the DONE edge after it is."""
+    s1 = state("S1")
+    for interrupted in (edge()._replace(new="HALT"), edge()._replace(lost="q")):
+        graph = Graph(None, s1)  # type: ignore[arg-type]
+        graph.edges = {s1: [(interrupted, state("halted")), (edge(DONE), state("done"))]}
+        cycles, run = _bound(graph, s1)
+        assert cycles == 2
+        assert [(e.new, e.lost, e.report) for e, _ in run] == [
+            (None, None, None),
+            (None, None, DONE),
+        ]
+
+
+def test_the_run_that_shows_an_unbounded_start_ends_where_it_fails() -> None:
+    """The first start that never reaches the goal decides the bound (INFINITE) and its run:
+    here it reports ERROR into S2; the run stops there, not carried on through S2's later
+    cycles that another start's search came across."""
+    begin, s2, s3 = state("begin"), state("S2"), state("S3")
+    graph = Graph(None, begin)  # type: ignore[arg-type]
+    graph.parent = {begin: None}
+    graph.edges = {s3: [(edge(), s2)], s2: [(edge(DONE), state("done"))]}
+    failing = edge("ERROR", ("GO/S1/1",))
+    cycles, run = _worst(
+        graph,
+        [(begin, failing, s2), (begin, edge(), s3)],
+        lambda e: e.report == DONE,
+        lambda e: e.report is not None and e.report != DONE,
+    )
+    assert cycles == INFINITE
+    assert [(e.report, t.state) for e, t in run] == [("ERROR", "S2")]
