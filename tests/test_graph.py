@@ -211,3 +211,20 @@ def test_readme_embeds_the_current_pictures(system, picture, command):
     readme = (REPO / "README.md").read_text(encoding="utf-8")
     block = "```mermaid\n" + graph.to_mermaid(graph.picture(system, picture)) + "```"
     assert block in readme, f"README.md's {picture} is stale: paste the output of `{command}`"
+
+
+def test_each_level_has_a_colour_of_its_own_and_a_deeper_one_wraps_round():
+    """Fills as Graphviz and Mermaid read them (`#rrggbb`): one per level of the hierarchy, a
+    level past the palette taking the first again; a step as its controller's level; a
+    simulator and a stand-in each apart from every level and from each other."""
+
+    def fill(kind: str, level: int = 0) -> str:
+        return graph._fill(graph.Node("n", ("n",), kind, level=level))
+
+    levels = [fill("controller", level) for level in range(1, len(graph.LEVEL_FILLS) + 2)]
+    every = [*levels, fill("simulator"), fill("stand_in"), fill("state"), fill("final")]
+    assert all(re.fullmatch("#[0-9a-f]{6}", colour) for colour in every + [fill("note")])
+    assert len(set(levels[:-1])) == len(graph.LEVEL_FILLS) and levels[-1] == levels[0]
+    assert [fill("step", level) for level in range(1, 4)] == levels[:3]
+    assert len({*levels, fill("simulator"), fill("stand_in")}) == len(graph.LEVEL_FILLS) + 2
+    assert len({fill("state"), fill("final"), fill("note")}) == 3

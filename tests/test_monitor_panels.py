@@ -22,6 +22,7 @@ pytest.importorskip("textual")
 from rich.text import Text  # noqa: E402
 from test_monitor import screen_text, until  # noqa: E402
 from textual.widgets import DataTable, Input, Static  # noqa: E402
+from textual.widgets.data_table import ColumnKey  # noqa: E402
 
 from rcsgen.runtime.operate.ctl import CtlError  # noqa: E402
 from rcsgen.tools import monitor, monitor_devices, monitor_state_time  # noqa: E402
@@ -784,3 +785,44 @@ def test_the_periodicity_panel_draws_each_process_and_a_missing_one_as_unknown()
     assert {str(c.style) for c in drawn["other"].values()} == {"grey50"}
     panel.show({})
     assert drawn["cell"]["period"].plain == "?"
+
+
+def test_each_table_keeps_its_own_cells_and_column_widths(cell: ModuleType) -> None:
+    """Two tables with a row and a column of one key: each draws its own cell (the same
+    text drawn in one is still drawn in the other), and each column grows to its own widest
+    value, however wide the other table's column of that key is."""
+    got: dict[str, Any] = {}
+
+    async def look(app: monitor.Monitor, console: FakeConsole, pilot: Any) -> None:
+        tables = [app.query_one(f"#{name}", DataTable) for name in ("modules", "world")]
+        for table in tables:
+            table.add_column("x", key="same")
+            table.add_row(*[""] * len(table.columns), key="same")
+        await pilot.pause()  # the new row measured: from here only a wider cell grows it
+        for table in tables:
+            app.update(table, "same", "same", Text("wider than the other"))
+        await pilot.pause()
+        got["cells"] = [cell_text(table, "same", "same").plain for table in tables]
+        got["widths"] = [table.columns[ColumnKey("same")].content_width for table in tables]
+
+    on_screen(cell, look)
+    assert got["cells"] == ["wider than the other"] * 2
+    assert got["widths"] == [len("wider than the other")] * 2
+
+
+def test_a_device_with_no_record_shows_what_it_cannot_know_as_unknown() -> None:
+    """A device whose record says nothing (not started, or unreadable): `?` in every cell
+    read from the record, `never` answered; its name as given."""
+    cells = {key: value.plain for key, value in monitor_devices.row_of("tank", {}).items()}
+    assert cells == {
+        "device": "tank",
+        "where": "? ?",
+        "state": "?",
+        "reads": "?",
+        "writes": "?",
+        "timeouts": "?",
+        "retries": "?",
+        "errors": "?",
+        "last_error": "?",
+        "answered": "never",
+    }

@@ -212,15 +212,18 @@ def test_a_bank_holds_its_starting_values_before_it_listens(
 ) -> None:
     """A device plugged in again takes the plant's values before its server listens: a
     client's write made as soon as the port opens is never overwritten by them (a bench's
-    replug, then a freeze and a client's write, read back 0 in CI when they came after)."""
+    replug, then a freeze and a client's write, read back 0 in CI when they came after).
+    An OPC UA node's namespace is registered on the server (its index names an entry of the
+    server's namespace array, as a client browsing the server reads it)."""
     declared = layout.IO_DEVICES[device]
     if declared.protocol == "opcua":
         pytest.importorskip("asyncua")
     values = [(p, True if p.value_type == "bool" else 3) for p in declared.points]
 
-    async def run() -> dict[str, object]:
+    async def run() -> tuple[dict[str, object], list[str]]:
         bank = softplc._bank(declared, "127.0.0.1", 0)
         seen: dict[str, object] = {}
+        namespaces: list[str] = []
         server: Any = bank.server
         listen = "serve_forever" if isinstance(bank, softplc.ModbusBank) else "start"
         original = getattr(server, listen)
@@ -228,6 +231,8 @@ def test_a_bank_holds_its_starting_values_before_it_listens(
         async def listening_now(*args: Any, **kwargs: Any) -> Any:
             for point, _ in values:
                 seen[point.field] = await bank.get(point)
+            if isinstance(bank, softplc.OpcUaBank):
+                namespaces[:] = await server.get_namespace_array()
             return await original(*args, **kwargs)
 
         setattr(server, listen, listening_now)
@@ -236,10 +241,13 @@ def test_a_bank_holds_its_starting_values_before_it_listens(
             await until(None, lambda: len(seen) == len(values), "listening")
         finally:
             await bank.stop()
-        return seen
+        return seen, namespaces
 
-    seen = asyncio.run(run())
+    seen, namespaces = asyncio.run(run())
     assert seen == {p.field: v for p, v in values}
+    if declared.protocol == "opcua":  # the rig's nodes are in ns=2: one namespace added
+        assert {str(p.address).split(";")[0] for p in declared.points} == {"ns=2"}
+        assert namespaces[2:] == ["urn:rcsgen:softplc:0"]
 
 
 def test_validate_connect_names_a_device_that_does_not_answer_and_a_point_it_lacks(
