@@ -78,3 +78,12 @@ def test_a_launched_harness_hands_its_launcher_the_settings_as_name_value(
     with pytest.raises(ValueError, match="inspection has no setting 'sed'"):
         harness.LaunchedHarness(INSPECTION, HOOKS, settings={"sed": "7"})
     assert len(given) == 2
+
+
+def test_a_directory_without_a_generated_package_is_said_so(tmp_path: Path) -> None:
+    """Not a traceback's `[Errno 2] ... __init__.py`: the directory named, as the soft PLC
+    and the tools that import a package report it in one line."""
+    for where in (tmp_path, tmp_path / "nowhere"):
+        with pytest.raises(ImportError) as refused:
+            harness.import_package(where)
+        assert str(refused.value) == f"no generated package in {where}"
