@@ -22,6 +22,7 @@ from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 from typing import Any
+from urllib.parse import urlsplit
 
 import pytest
 from conftest import until, wait_for
@@ -214,16 +215,18 @@ def test_a_bank_holds_its_starting_values_before_it_listens(
     client's write made as soon as the port opens is never overwritten by them (a bench's
     replug, then a freeze and a client's write, read back 0 in CI when they came after).
     An OPC UA node's namespace is registered on the server (its index names an entry of the
-    server's namespace array, as a client browsing the server reads it)."""
+    server's namespace array, as a client browsing the server reads it), and its endpoints
+    are served at the declared URL's path."""
     declared = layout.IO_DEVICES[device]
     if declared.protocol == "opcua":
         pytest.importorskip("asyncua")
     values = [(p, True if p.value_type == "bool" else 3) for p in declared.points]
 
-    async def run() -> tuple[dict[str, object], list[str]]:
+    async def run() -> tuple[dict[str, object], list[str], set[str]]:
         bank = softplc._bank(declared, "127.0.0.1", 0)
         seen: dict[str, object] = {}
         namespaces: list[str] = []
+        paths: set[str] = set()
         server: Any = bank.server
         listen = "serve_forever" if isinstance(bank, softplc.ModbusBank) else "start"
         original = getattr(server, listen)
@@ -239,15 +242,18 @@ def test_a_bank_holds_its_starting_values_before_it_listens(
         try:
             await bank.start(values)
             await until(None, lambda: len(seen) == len(values), "listening")
+            if isinstance(bank, softplc.OpcUaBank):  # the path its endpoints are served at
+                paths.update(urlsplit(e.EndpointUrl).path for e in await server.get_endpoints())
         finally:
             await bank.stop()
-        return seen, namespaces
+        return seen, namespaces, paths
 
-    seen, namespaces = asyncio.run(run())
+    seen, namespaces, paths = asyncio.run(run())
     assert seen == {p.field: v for p, v in values}
     if declared.protocol == "opcua":  # the rig's nodes are in ns=2: one namespace added
         assert {str(p.address).split(";")[0] for p in declared.points} == {"ns=2"}
         assert namespaces[2:] == ["urn:rcsgen:softplc:0"]
+        assert urlsplit(declared.url).path == "/rig" and paths == {"/rig"}
 
 
 def test_validate_connect_names_a_device_that_does_not_answer_and_a_point_it_lacks(
@@ -512,18 +518,39 @@ def test_a_bench_says_which_plc_did_not_start_and_why(
 
 
 def test_the_plcs_help_says_what_it_is(capsys: pytest.CaptureFixture[str]) -> None:
+    """The help word for word (however wide the terminal wraps it): what the PLC is, and what
+    each option means, the files it writes for the bench (a scenario's bench reads them)."""
     with pytest.raises(SystemExit) as done:
         softplc.main(["--help"])
     assert done.value.code == 0
     said = capsys.readouterr().out
     assert said.startswith("usage: python -m rcsgen.tools.softplc ")
+    words = " ".join(said.split())
     described = (
-        "A soft PLC: a system's simulators behind a Modbus TCP server, for hardware in the loop."
+        "A soft PLC: a system's simulators behind Modbus TCP or OPC UA servers, for hardware in "
+        "the loop."
     )
-    assert described in " ".join(said.split())  # however wide the terminal wraps it
-    # what the files it writes for the bench hold (a scenario's bench reads them)
-    for contract in (
-        "--ready READY write the ports here once listening (a line per --device, in order)",
-        "--report REPORT write the plant's world here (JSON) when stopped",
-    ):
-        assert contract in " ".join(said.split())
+    assert described in words
+    assert words.split("options: ", 1)[1] == " ".join(
+        (
+            "-h, --help show this help message and exit",
+            "--plant PLANT the generated package whose simulators run here (default: none, a",
+            "PLC whose inputs hold --io's initial world values, or --world's)",
+            "--hooks HOOKS the plant's spec directory (its hook modules)",
+            "--io IO the generated package that declares the device",
+            "--device DEVICE a device this PLC serves (repeatable: one plant behind several",
+            "devices)",
+            "--host HOST",
+            "--port PORT the port of each --device, in their order (default: the declared one;",
+            "0: any)",
+            "--period PERIOD seconds per PLC cycle (default: the devices' shortest poll period)",
+            "--control CONTROL a directory: a file named after a device holding `unplug` stops",
+            "its server (connections closed, new ones refused), `replug` starts it again on its",
+            "port",
+            "--cycles CYCLES stop after this many cycles",
+            "--set KEY=VALUE a run setting of the plant",
+            "--world FIELD=VALUE start the plant's world field FIELD at VALUE (repeatable)",
+            "--report REPORT write the plant's world here (JSON) when stopped",
+            "--ready READY write the ports here once listening (a line per --device, in order)",
+        )
+    )

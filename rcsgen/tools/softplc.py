@@ -1,4 +1,4 @@
-"""A soft PLC: a system's simulators behind a Modbus TCP server, for hardware in the loop.
+"""A soft PLC: a system's simulators behind Modbus TCP or OPC UA servers, for hardware in the loop.
 
 `python -m rcsgen.tools.softplc --plant generated/miner --hooks specs/miner --io
 generated/miner_hil --device plc --port 5020` runs the plant package's simulator modules
