@@ -827,3 +827,20 @@ def test_a_device_with_no_record_shows_what_it_cannot_know_as_unknown() -> None:
         "last_error": "?",
         "answered": "never",
     }
+
+
+def test_a_module_row_has_a_cell_under_each_header_an_operator_reads() -> None:
+    """The modules table's columns, in order, as their headers read, each one of a row's
+    cells; the world table's likewise (no screen needed)."""
+    app = monitor.Monitor.__new__(monitor.Monitor)
+    app.last_rule = {}
+    assert " | ".join(label for _, label in monitor.COLUMNS) == (
+        "module | command | # | status | # | state | last rule fired | mode "
+        "| cycle us last/min/max | beat"
+    )
+    assert [key for key, _ in monitor.COLUMNS] == list(app.cells("arm", "", module_row()))
+    assert list(monitor.WORLD_COLUMNS) == list(app.world_cells("arm_x", 1.5)) == [
+        "field",
+        "value",
+        "override",
+    ]
