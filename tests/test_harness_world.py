@@ -87,3 +87,22 @@ def test_a_directory_without_a_generated_package_is_said_so(tmp_path: Path) -> N
         with pytest.raises(ImportError) as refused:
             harness.import_package(where)
         assert str(refused.value) == f"no generated package in {where}"
+
+
+def test_a_command_written_is_read_back_with_its_arguments_by_name(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """What `command` writes into a module's command buffer, `sent` reads back: the command's
+    name, its number and its arguments by their spec names; `results` a status buffer's."""
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    h = harness.Harness(
+        harness.import_package(REPO / "generated" / "cell", REPO / "specs" / "cell")
+    )
+    try:
+        number = h.command("sup", "RUN", moves=3)
+        assert h.sent("sup") == harness.Sent("RUN", number, {"moves": 3})
+        assert h.sent("arm") == harness.Sent("NONE", 0, {})  # nothing sent yet
+        # a module's results by their names, zero before it has run
+        assert [h.results(m) for m in ("sup", "arm")] == [{"made": 0, "waited": 0}, {}]
+    finally:
+        h.close()
