@@ -228,3 +228,16 @@ def test_each_level_has_a_colour_of_its_own_and_a_deeper_one_wraps_round():
     assert [fill("step", level) for level in range(1, 4)] == levels[:3]
     assert len({*levels, fill("simulator"), fill("stand_in")}) == len(graph.LEVEL_FILLS) + 2
     assert len({fill("state"), fill("final"), fill("note")}) == 3
+
+
+def test_levels_end_on_a_loop_of_clients_or_supervisors():
+    """A loop (two operator modules each the other's client, two modules each the other's
+    supervisor) still ends: each module a level once, the walk never going round again."""
+    from types import SimpleNamespace
+
+    def system(*modules: tuple[str, tuple[str, ...], str | None]) -> SimpleNamespace:
+        made = [SimpleNamespace(name=n, clients=c, supervisor=s) for n, c, s in modules]
+        return SimpleNamespace(controllers=made)
+
+    assert graph.levels(system(("a", ("b",), None), ("b", ("a",), None))) == {"b": 1, "a": 2}
+    assert graph.levels(system(("a", (), "b"), ("b", (), "a"))) == {"b": 1, "a": 2}
