@@ -512,8 +512,7 @@ def test_a_bench_says_which_plc_did_not_start_and_why(
     finally:
         bench.close()
     assert str(error.value) == (
-        "the soft PLC of device `tank` did not start: softplc: [Errno 2] No such file or "
-        f"directory: '{nothing}/__init__.py'"
+        f"the soft PLC of device `tank` did not start: softplc: no generated package in {nothing}"
     )
 
 
