@@ -16,6 +16,7 @@ import json
 import os
 import shutil
 import socket
+import sys
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import replace
@@ -553,3 +554,17 @@ def test_the_plcs_help_says_what_it_is(capsys: pytest.CaptureFixture[str]) -> No
             "--ready READY write the ports here once listening (a line per --device, in order)",
         )
     )
+
+
+def test_a_plant_runs_its_packages_simulators_and_nothing_else(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The PLC's plant is the package's simulator modules alone (the cell's `arm`), each a
+    root where nothing of the plant supervises it, run a cycle at a time."""
+    repo = RIG.parents[3]
+    monkeypatch.setattr(sys, "path", list(sys.path))  # the hooks' directory put first: undone
+    plant = softplc.Plant(import_package(repo / "generated" / "cell", repo / "specs" / "cell"), {})
+    assert plant.layout.SIMULATORS == ("arm",)
+    assert list(plant.process.instances) == ["arm"] and plant.process.plan.roots == ("arm",)
+    plant.process.run_cycle()
+    assert plant.process.cycle == 1
