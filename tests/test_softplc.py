@@ -568,3 +568,9 @@ def test_a_plant_runs_its_packages_simulators_and_nothing_else(
     assert list(plant.process.instances) == ["arm"] and plant.process.plan.roots == ("arm",)
     plant.process.run_cycle()
     assert plant.process.cycle == 1
+
+
+def test_a_cycle_waits_the_rest_of_its_period_and_a_late_one_does_not_catch_up() -> None:
+    assert softplc._paced(10.5, 10.0) == (10.5, 0.5)  # early: the rest of the period
+    assert softplc._paced(10.0, 10.0) == (10.0, 0.0)
+    assert softplc._paced(10.0, 10.25) == (10.25, 0.0)  # late: the next period from now
