@@ -839,8 +839,5 @@ def test_a_module_row_has_a_cell_under_each_header_an_operator_reads() -> None:
         "| cycle us last/min/max | beat"
     )
     assert [key for key, _ in monitor.COLUMNS] == list(app.cells("arm", "", module_row()))
-    assert list(monitor.WORLD_COLUMNS) == list(app.world_cells("arm_x", 1.5)) == [
-        "field",
-        "value",
-        "override",
-    ]
+    world = ["field", "value", "override"]
+    assert list(monitor.WORLD_COLUMNS) == list(app.world_cells("arm_x", 1.5)) == world
