@@ -241,3 +241,13 @@ def test_levels_end_on_a_loop_of_clients_or_supervisors():
 
     assert graph.levels(system(("a", ("b",), None), ("b", ("a",), None))) == {"b": 1, "a": 2}
     assert graph.levels(system(("a", (), "b"), ("b", (), "a"))) == {"b": 1, "a": 2}
+
+
+def test_an_order_pictures_note_wraps_the_execution_order_at_48_characters():
+    platoon = compile_paths([REPO / "specs" / "platoon"]).systems[0]
+    note = graph.picture(platoon, "order:alpha").nodes[0]
+    assert note.label == (
+        "pa runs, every cycle:",
+        "alpha alpha_loco alpha_drive alpha_rsta",  # 39 characters: with alpha_pan, 49
+        "alpha_pan alpha_motion alpha_sensor",
+    )
