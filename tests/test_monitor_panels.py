@@ -577,6 +577,7 @@ def test_a_request_is_answered_at_once_or_through_the_task_form(cell: ModuleType
             app.on_input_submitted(Input.Submitted(form, typed))
             got.setdefault("said", []).append(said(app).plain)
         got["closed"] = not form.has_class("open")  # each answer, right or wrong, closes it
+        got["wrong"] = str(said(app).style)  # the last one typed was wrong: said in red
         await pilot.press("down", "a")  # arm asks nothing: the first request open
         got["first"] = said(app).plain
         console.shot = snapshot(requests=[dict(task, reasons=[], results={})])
@@ -591,7 +592,7 @@ def test_a_request_is_answered_at_once_or_through_the_task_form(cell: ModuleType
     assert (
         got["placeholder"] == "weigh WEIGH: DONE grams=0 | ERROR [REASON]  reasons: EMPTY, JAMMED"
     )
-    assert got["value"] == "DONE" and got["closed"]
+    assert got["value"] == "DONE" and got["closed"] and got["wrong"] == "bold red"
     wrong = "answer weigh with DONE [NAME=VALUE ...] or ERROR [REASON]"
     assert got["said"] == [
         "answered weigh: weigh #5 DONE grams=12 ok=yes",
