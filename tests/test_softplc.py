@@ -334,6 +334,16 @@ def test_the_plc_refuses_a_bad_argument_in_one_line(
     assert len(err.strip().splitlines()) == 1
 
 
+def test_the_plc_needs_the_package_and_a_device(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as done:
+        softplc.main([])
+    assert done.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "python -m rcsgen.tools.softplc: error: the following arguments are required: --io, "
+        "--device"
+    )
+
+
 def test_the_plc_refuses_a_plant_without_a_field_its_device_binds(
     rig: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
