@@ -232,6 +232,8 @@ def test_the_screen_shows_every_module_world_field_and_process_as_read(cell: Mod
         got["styles"] = {m: str(cell_text(table, m, "status").style) for m in ("sup", "arm")}
         world = app.query_one("#world", DataTable)
         got["world_headers"] = [str(c.label) for c in world.columns.values()]
+        # the modules' rows a cursor moves over, the world's read only; no row striped
+        got["display"] = [(t.cursor_type, t.zebra_stripes) for t in (table, world)]
         got["world"] = {
             f: [cell_text(world, f, k).plain for k in monitor.WORLD_COLUMNS]
             for f in ("arm_x", "arm_speed")
@@ -272,6 +274,7 @@ def test_the_screen_shows_every_module_world_field_and_process_as_read(cell: Mod
     assert got["rows"]["exe"]["module"] == "└─ exe" and got["rows"]["arm"]["module"] == "arm"
     assert got["styles"] == {"sup": "yellow", "arm": "yellow"}
     assert got["world_headers"] == ["field", "value", "override"]
+    assert got["display"] == [("row", False), ("none", False)]
     assert got["world"] == {"arm_x": ["arm_x", "1.5", ""], "arm_speed": ["arm_speed", "0.0", ""]}
     assert got["processes"] == "cell: running, 120 cycles, beat 0.01s ago, 2 overruns, slow x4"
     assert got["title"] == "cell on seg_cellseg (monitor only)"

@@ -109,3 +109,30 @@ def test_a_seed_is_masked_only_by_a_finding_it_would_cause_at_its_own_place() ->
     others = had(("W708", "sup", "RUN", "S0"), ("W704", "arm", "RUN", "S0"))
     assert _masked(send, others) == ""
     assert _masked(send, had(("W704", "sup", "HALT", "S0"))) == ""
+
+
+def test_a_done_after_an_error_in_one_guard_and_a_templates_controllers_are_seeded(
+    tmp_path: Path,
+) -> None:
+    """Each `.status == DONE` of a guard is an echo to forget, after an ERROR test too; a
+    template's controllers (a directory beside system.yaml holding a template.yaml) are
+    seeded as the system's are, each in its own file."""
+    directory = tmp_path / "tiny"
+    (directory / "cell").mkdir(parents=True)
+    either = SUP.replace(
+        "when: arm.status == DONE", "when: arm.status == ERROR or arm.status == DONE"
+    )
+    files = {"sup.yaml": either, "arm.yaml": ARM, "system.yaml": SYSTEM}
+    files |= {
+        "cell/template.yaml": "template: cell\n",
+        "cell/boss.yaml": SUP.replace("sup", "boss"),
+    }
+    for name, text in files.items():
+        (directory / name).write_text(text)
+    found = [(s.kind, s.file, s.where) for s in seeds(directory)]
+    assert (
+        "forget-echo",
+        "sup.yaml",
+        "sup RUN/S0/1: `arm.status == DONE` read as `arm.status != ERROR`",
+    ) in found
+    assert ("drop-send", "cell/boss.yaml", "boss RUN/S0/1: send arm.GO left out") in found
