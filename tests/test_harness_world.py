@@ -93,7 +93,8 @@ def test_a_command_written_is_read_back_with_its_arguments_by_name(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """What `command` writes into a module's command buffer, `sent` reads back: the command's
-    name, its number and its arguments by their spec names; `results` a status buffer's."""
+    name, its number and its arguments by their spec names; `results` a status buffer's;
+    `reply` writes a status as the module would."""
     monkeypatch.setattr(sys, "path", list(sys.path))
     h = harness.Harness(
         harness.import_package(REPO / "generated" / "cell", REPO / "specs" / "cell")
@@ -104,5 +105,8 @@ def test_a_command_written_is_read_back_with_its_arguments_by_name(
         assert h.sent("arm") == harness.Sent("NONE", 0, {})  # nothing sent yet
         # a module's results by their names, zero before it has run
         assert [h.results(m) for m in ("sup", "arm")] == [{"made": 0, "waited": 0}, {}]
+        h.reply("sup", "DONE")  # as if it had run: its command number echoed, no reason
+        assert (h.status("sup").status, h.status("sup").number) == ("DONE", number)
+        assert h.status("sup").error_num == 0
     finally:
         h.close()
