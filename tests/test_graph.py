@@ -51,6 +51,10 @@ def test_hierarchy_has_every_module_by_level_with_simulators_and_stand_ins(syste
     assert 'shape=box, style="filled,dashed"' in shapes["m_cr_sim"]
     assert 'shape=box, style="rounded,filled,dashed"' in shapes["m_mine"]
     assert 'shape=box, style="rounded,filled"' in shapes["m_co"]
+    # a command edge solid blue, a stand-in's dashed grey
+    dot = graph.to_dot(picture).splitlines()
+    assert '  "m_sb" -> "m_co" [color="#1f6feb", penwidth=1.5];' in dot
+    assert '  "m_cr_sim" -> "m_cr" [style=dashed, color="#888888", label="stands in for"];' in dot
 
 
 def test_hierarchy_mermaid_colours_levels_and_marks_simulators(system):
