@@ -51,6 +51,10 @@ def test_hierarchy_has_every_module_by_level_with_simulators_and_stand_ins(syste
     assert 'shape=box, style="filled,dashed"' in shapes["m_cr_sim"]
     assert 'shape=box, style="rounded,filled,dashed"' in shapes["m_mine"]
     assert 'shape=box, style="rounded,filled"' in shapes["m_co"]
+    # a command edge solid blue, a stand-in's dashed grey
+    dot = graph.to_dot(picture).splitlines()
+    assert '  "m_sb" -> "m_co" [color="#1f6feb", penwidth=1.5];' in dot
+    assert '  "m_cr_sim" -> "m_cr" [style=dashed, color="#888888", label="stands in for"];' in dot
 
 
 def test_hierarchy_mermaid_colours_levels_and_marks_simulators(system):
@@ -211,3 +215,43 @@ def test_readme_embeds_the_current_pictures(system, picture, command):
     readme = (REPO / "README.md").read_text(encoding="utf-8")
     block = "```mermaid\n" + graph.to_mermaid(graph.picture(system, picture)) + "```"
     assert block in readme, f"README.md's {picture} is stale: paste the output of `{command}`"
+
+
+def test_each_level_has_a_colour_of_its_own_and_a_deeper_one_wraps_round():
+    """Fills as Graphviz and Mermaid read them (`#rrggbb`): one per level of the hierarchy, a
+    level past the palette taking the first again; a step as its controller's level; a
+    simulator and a stand-in each apart from every level and from each other."""
+
+    def fill(kind: str, level: int = 0) -> str:
+        return graph._fill(graph.Node("n", ("n",), kind, level=level))
+
+    levels = [fill("controller", level) for level in range(1, len(graph.LEVEL_FILLS) + 2)]
+    every = [*levels, fill("simulator"), fill("stand_in"), fill("state"), fill("final")]
+    assert all(re.fullmatch("#[0-9a-f]{6}", colour) for colour in every + [fill("note")])
+    assert len(set(levels[:-1])) == len(graph.LEVEL_FILLS) and levels[-1] == levels[0]
+    assert [fill("step", level) for level in range(1, 4)] == levels[:3]
+    assert len({*levels, fill("simulator"), fill("stand_in")}) == len(graph.LEVEL_FILLS) + 2
+    assert len({fill("state"), fill("final"), fill("note")}) == 3
+
+
+def test_levels_end_on_a_loop_of_clients_or_supervisors():
+    """A loop (two operator modules each the other's client, two modules each the other's
+    supervisor) still ends: each module a level once, the walk never going round again."""
+    from types import SimpleNamespace
+
+    def system(*modules: tuple[str, tuple[str, ...], str | None]) -> SimpleNamespace:
+        made = [SimpleNamespace(name=n, clients=c, supervisor=s) for n, c, s in modules]
+        return SimpleNamespace(controllers=made)
+
+    assert graph.levels(system(("a", ("b",), None), ("b", ("a",), None))) == {"b": 1, "a": 2}
+    assert graph.levels(system(("a", (), "b"), ("b", (), "a"))) == {"b": 1, "a": 2}
+
+
+def test_an_order_pictures_note_wraps_the_execution_order_at_48_characters():
+    platoon = compile_paths([REPO / "specs" / "platoon"]).systems[0]
+    note = graph.picture(platoon, "order:alpha").nodes[0]
+    assert note.label == (
+        "pa runs, every cycle:",
+        "alpha alpha_loco alpha_drive alpha_rsta",  # 39 characters: with alpha_pan, 49
+        "alpha_pan alpha_motion alpha_sensor",
+    )

@@ -22,6 +22,7 @@ pytest.importorskip("textual")
 from rich.text import Text  # noqa: E402
 from test_monitor import screen_text, until  # noqa: E402
 from textual.widgets import DataTable, Input, Static  # noqa: E402
+from textual.widgets.data_table import ColumnKey  # noqa: E402
 
 from rcsgen.runtime.operate.ctl import CtlError  # noqa: E402
 from rcsgen.tools import monitor, monitor_devices, monitor_state_time  # noqa: E402
@@ -231,6 +232,8 @@ def test_the_screen_shows_every_module_world_field_and_process_as_read(cell: Mod
         got["styles"] = {m: str(cell_text(table, m, "status").style) for m in ("sup", "arm")}
         world = app.query_one("#world", DataTable)
         got["world_headers"] = [str(c.label) for c in world.columns.values()]
+        # the modules' rows a cursor moves over, the world's read only; no row striped
+        got["display"] = [(t.cursor_type, t.zebra_stripes) for t in (table, world)]
         got["world"] = {
             f: [cell_text(world, f, k).plain for k in monitor.WORLD_COLUMNS]
             for f in ("arm_x", "arm_speed")
@@ -271,6 +274,7 @@ def test_the_screen_shows_every_module_world_field_and_process_as_read(cell: Mod
     assert got["rows"]["exe"]["module"] == "└─ exe" and got["rows"]["arm"]["module"] == "arm"
     assert got["styles"] == {"sup": "yellow", "arm": "yellow"}
     assert got["world_headers"] == ["field", "value", "override"]
+    assert got["display"] == [("row", False), ("none", False)]
     assert got["world"] == {"arm_x": ["arm_x", "1.5", ""], "arm_speed": ["arm_speed", "0.0", ""]}
     assert got["processes"] == "cell: running, 120 cycles, beat 0.01s ago, 2 overruns, slow x4"
     assert got["title"] == "cell on seg_cellseg (monitor only)"
@@ -575,6 +579,8 @@ def test_a_request_is_answered_at_once_or_through_the_task_form(cell: ModuleType
             form.value = typed
             app.on_input_submitted(Input.Submitted(form, typed))
             got.setdefault("said", []).append(said(app).plain)
+        got["closed"] = not form.has_class("open")  # each answer, right or wrong, closes it
+        got["wrong"] = str(said(app).style)  # the last one typed was wrong: said in red
         await pilot.press("down", "a")  # arm asks nothing: the first request open
         got["first"] = said(app).plain
         console.shot = snapshot(requests=[dict(task, reasons=[], results={})])
@@ -589,7 +595,7 @@ def test_a_request_is_answered_at_once_or_through_the_task_form(cell: ModuleType
     assert (
         got["placeholder"] == "weigh WEIGH: DONE grams=0 | ERROR [REASON]  reasons: EMPTY, JAMMED"
     )
-    assert got["value"] == "DONE"
+    assert got["value"] == "DONE" and got["closed"] and got["wrong"] == "bold red"
     wrong = "answer weigh with DONE [NAME=VALUE ...] or ERROR [REASON]"
     assert got["said"] == [
         "answered weigh: weigh #5 DONE grams=12 ok=yes",
@@ -784,3 +790,58 @@ def test_the_periodicity_panel_draws_each_process_and_a_missing_one_as_unknown()
     assert {str(c.style) for c in drawn["other"].values()} == {"grey50"}
     panel.show({})
     assert drawn["cell"]["period"].plain == "?"
+
+
+def test_each_table_keeps_its_own_cells_and_column_widths(cell: ModuleType) -> None:
+    """Two tables with a row and a column of one key: each draws its own cell (the same
+    text drawn in one is still drawn in the other), and each column grows to its own widest
+    value, however wide the other table's column of that key is."""
+    got: dict[str, Any] = {}
+
+    async def look(app: monitor.Monitor, console: FakeConsole, pilot: Any) -> None:
+        tables = [app.query_one(f"#{name}", DataTable) for name in ("modules", "world")]
+        for table in tables:
+            table.add_column("x", key="same")
+            table.add_row(*[""] * len(table.columns), key="same")
+        await pilot.pause()  # the new row measured: from here only a wider cell grows it
+        for table in tables:
+            app.update(table, "same", "same", Text("wider than the other"))
+        await pilot.pause()
+        got["cells"] = [cell_text(table, "same", "same").plain for table in tables]
+        got["widths"] = [table.columns[ColumnKey("same")].content_width for table in tables]
+
+    on_screen(cell, look)
+    assert got["cells"] == ["wider than the other"] * 2
+    assert got["widths"] == [len("wider than the other")] * 2
+
+
+def test_a_device_with_no_record_shows_what_it_cannot_know_as_unknown() -> None:
+    """A device whose record says nothing (not started, or unreadable): `?` in every cell
+    read from the record, `never` answered; its name as given."""
+    cells = {key: value.plain for key, value in monitor_devices.row_of("tank", {}).items()}
+    assert cells == {
+        "device": "tank",
+        "where": "? ?",
+        "state": "?",
+        "reads": "?",
+        "writes": "?",
+        "timeouts": "?",
+        "retries": "?",
+        "errors": "?",
+        "last_error": "?",
+        "answered": "never",
+    }
+
+
+def test_a_module_row_has_a_cell_under_each_header_an_operator_reads() -> None:
+    """The modules table's columns, in order, as their headers read, each one of a row's
+    cells; the world table's likewise (no screen needed)."""
+    app = monitor.Monitor.__new__(monitor.Monitor)
+    app.last_rule = {}
+    assert " | ".join(label for _, label in monitor.COLUMNS) == (
+        "module | command | # | status | # | state | last rule fired | mode "
+        "| cycle us last/min/max | beat"
+    )
+    assert [key for key, _ in monitor.COLUMNS] == list(app.cells("arm", "", module_row()))
+    world = ["field", "value", "override"]
+    assert list(monitor.WORLD_COLUMNS) == list(app.world_cells("arm_x", 1.5)) == world

@@ -106,7 +106,23 @@ def test_block_lists_and_a_new_root(tmp_path: Path, monkeypatch: pytest.MonkeyPa
 @pytest.mark.parametrize(
     ("args", "code", "message"),
     [
-        (["system", "Lamp"], 2, "system name 'Lamp' is not a lower-case name"),
+        (
+            ["system", "Lamp"],
+            2,
+            "system name 'Lamp' is not a lower-case name (letters, digits, _; a letter first)",
+        ),
+        (
+            ["system", "lamp", "--root", "1st"],
+            2,
+            "controller mnemonic '1st' is not a lower-case name (letters, digits, _; a letter "
+            "first)",
+        ),
+        (
+            ["controller", "specs/demo", "Arm"],
+            2,
+            "controller mnemonic 'Arm' is not a lower-case name (letters, digits, _; a letter "
+            "first)",
+        ),
         (
             ["system", "lamp", "--period", "0"],
             2,

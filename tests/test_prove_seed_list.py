@@ -72,3 +72,67 @@ def test_every_seed_of_a_small_system_in_a_stable_order(tmp_path: Path) -> None:
     assert "HALT" not in texts[4]["commands"] and "RUN" in texts[4]["commands"]
     assert texts[5]["processes"] == {"p": {"modules": ["arm", "sup"]}, "q": {"modules": ["arm"]}}
     assert yaml.safe_load(SUP) == yaml.safe_load((directory / "sup.yaml").read_text())  # untouched
+
+
+def test_a_seed_is_masked_only_by_a_finding_it_would_cause_at_its_own_place() -> None:
+    """A finding the unchanged system already has hides a seed that would cause it (it could
+    not show as new): a rule's seed (an ERROR branch left out, a DONE echo forgotten) only
+    in that rule's state, a command's seed (a send left out) anywhere in the command; never
+    a finding of another code, controller or command."""
+    from rcsgen.compiler.diagnostics import Span
+    from rcsgen.compiler.prove.properties import Finding
+    from rcsgen.compiler.prove.system import SystemProof
+    from rcsgen.tools.prove_seeds import Seed, _masked
+
+    def had(*found: tuple[str, str, str, str]) -> SystemProof:
+        return SystemProof(
+            "tiny", [Finding(c, m, cmd, s, 1, Span("sup.yaml"), "", "") for c, m, cmd, s in found]
+        )
+
+    def seed(kind: str, where: str) -> Seed:
+        return Seed(kind, "tiny", "sup.yaml", "sup", "RUN", f"sup RUN/S0/1: {where}", "")
+
+    echo = seed("forget-echo", "`arm.status == DONE` read as `arm.status != ERROR`")
+    branch = seed("drop-error-branch", "the ERROR branch `arm.status == ERROR` left out")
+    send = seed("drop-send", "send arm.GO left out")
+    elsewhere = had(("W708", "sup", "RUN", "S1"), ("W705", "sup", "RUN", "S1"))
+    assert _masked(echo, elsewhere) == "" and _masked(branch, elsewhere) == ""
+    assert _masked(echo, had(("W708", "sup", "RUN", "S0"))) == (
+        "the unchanged system already has W708 at sup RUN S0"
+    )
+    assert _masked(branch, had(("W705", "sup", "RUN", "S0"))) == (
+        "the unchanged system already has W705 at sup RUN S0"
+    )
+    assert _masked(send, had(("W704", "sup", "RUN", "S1"))) == (
+        "the unchanged system already has W704 at sup RUN S1"
+    )
+    others = had(("W708", "sup", "RUN", "S0"), ("W704", "arm", "RUN", "S0"))
+    assert _masked(send, others) == ""
+    assert _masked(send, had(("W704", "sup", "HALT", "S0"))) == ""
+
+
+def test_a_done_after_an_error_in_one_guard_and_a_templates_controllers_are_seeded(
+    tmp_path: Path,
+) -> None:
+    """Each `.status == DONE` of a guard is an echo to forget, after an ERROR test too; a
+    template's controllers (a directory beside system.yaml holding a template.yaml) are
+    seeded as the system's are, each in its own file."""
+    directory = tmp_path / "tiny"
+    (directory / "cell").mkdir(parents=True)
+    either = SUP.replace(
+        "when: arm.status == DONE", "when: arm.status == ERROR or arm.status == DONE"
+    )
+    files = {"sup.yaml": either, "arm.yaml": ARM, "system.yaml": SYSTEM}
+    files |= {
+        "cell/template.yaml": "template: cell\n",
+        "cell/boss.yaml": SUP.replace("sup", "boss"),
+    }
+    for name, text in files.items():
+        (directory / name).write_text(text)
+    found = [(s.kind, s.file, s.where) for s in seeds(directory)]
+    assert (
+        "forget-echo",
+        "sup.yaml",
+        "sup RUN/S0/1: `arm.status == DONE` read as `arm.status != ERROR`",
+    ) in found
+    assert ("drop-send", "cell/boss.yaml", "boss RUN/S0/1: send arm.GO left out") in found

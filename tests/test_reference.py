@@ -101,3 +101,13 @@ def test_doc_check_fails_when_stale_and_names_the_command(tmp_path, monkeypatch)
     (tmp_path / "docs" / "reference" / "miner" / "notes.md").write_text("mine\n")
     assert rcsgen("doc").exit_code == 0  # a page rcsgen did not write is left alone
     assert (tmp_path / "docs" / "reference" / "miner" / "notes.md").read_text() == "mine\n"
+
+
+def test_an_operator_modules_tasks_are_a_row_each_with_their_parameters():
+    op = reference.render(compile_paths([REPO / "specs" / "inspection"]).systems[0])
+    rows = op["inspection/op.md"].splitlines()
+    assert (
+        "| 4 | PLACE_PART | setup: int, clamps: int | Place the part in the fixture in setup "
+        "{setup} and clamp it with {clamps} clamps, then answer. | `REFUSED` | Fixturing's "
+        "Place_part (Figure 39). |"
+    ) in rows

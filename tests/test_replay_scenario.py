@@ -19,7 +19,8 @@ from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.ir import IRSystem
 from rcsgen.compiler.prove.model import Edge, State
 from rcsgen.compiler.prove.properties import Finding
-from rcsgen.tools.replay import events, scenario_text
+from rcsgen.compiler.types import BOOL, FLOAT, INT, Str
+from rcsgen.tools.replay import _free, events, scenario_text
 from rcsgen.tools.scenario.check import check_scenario
 
 MINER = Path(__file__).resolve().parent.parent / "specs" / "miner"
@@ -91,6 +92,9 @@ def test_each_cycle_of_a_counter_example_is_an_event(miner) -> None:
 def test_a_parameter_the_model_left_free_is_zero_or_false(miner) -> None:
     found, _ = events(miner, finding(edge(new="REPOSITION")))
     assert found[0]["with"] == {"x": 0, "y": 0}
+    # each kind of parameter: false, the empty text, zero (of the scenario's own types)
+    free = [_free(kind) for kind in (BOOL, Str(8), INT, FLOAT)]
+    assert free == [False, "", 0, 0] and [type(v) for v in free] == [bool, str, int, int]
 
 
 def test_a_lost_process_cannot_be_replayed_and_says_when(miner) -> None:

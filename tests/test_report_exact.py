@@ -128,6 +128,8 @@ def test_coloured_text_styles_each_part_and_puts_the_caret_under_the_column() ->
         "  <fg=blue>|</>    <bold=True,fg=green>^</>",
         "  <fg=cyan>= hint:</> did you mean `MOVE`?",
     ]
+    at_first = report.render_text(WARNING, "S2:", _style).splitlines()  # column 1: no indent
+    assert at_first[1:3] == ["  <fg=blue>|</> S2:", "  <fg=blue>|</> <bold=True,fg=green>^</>"]
     assert report.render_text(ACKNOWLEDGED, None, _style).splitlines() == [
         "<bold=True>/abs/x.yaml:2:7</>: <fg=cyan>acknowledged[W503]</>: state S1 can wait",
         "  <fg=cyan>= reason:</> the operator ends it",

@@ -16,12 +16,14 @@ import json
 import os
 import shutil
 import socket
+import sys
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 from typing import Any
+from urllib.parse import urlsplit
 
 import pytest
 from conftest import until, wait_for
@@ -212,15 +214,20 @@ def test_a_bank_holds_its_starting_values_before_it_listens(
 ) -> None:
     """A device plugged in again takes the plant's values before its server listens: a
     client's write made as soon as the port opens is never overwritten by them (a bench's
-    replug, then a freeze and a client's write, read back 0 in CI when they came after)."""
+    replug, then a freeze and a client's write, read back 0 in CI when they came after).
+    An OPC UA node's namespace is registered on the server (its index names an entry of the
+    server's namespace array, as a client browsing the server reads it), and its endpoints
+    are served at the declared URL's path."""
     declared = layout.IO_DEVICES[device]
     if declared.protocol == "opcua":
         pytest.importorskip("asyncua")
     values = [(p, True if p.value_type == "bool" else 3) for p in declared.points]
 
-    async def run() -> dict[str, object]:
+    async def run() -> tuple[dict[str, object], list[str], set[str]]:
         bank = softplc._bank(declared, "127.0.0.1", 0)
         seen: dict[str, object] = {}
+        namespaces: list[str] = []
+        paths: set[str] = set()
         server: Any = bank.server
         listen = "serve_forever" if isinstance(bank, softplc.ModbusBank) else "start"
         original = getattr(server, listen)
@@ -228,18 +235,26 @@ def test_a_bank_holds_its_starting_values_before_it_listens(
         async def listening_now(*args: Any, **kwargs: Any) -> Any:
             for point, _ in values:
                 seen[point.field] = await bank.get(point)
+            if isinstance(bank, softplc.OpcUaBank):
+                namespaces[:] = await server.get_namespace_array()
             return await original(*args, **kwargs)
 
         setattr(server, listen, listening_now)
         try:
             await bank.start(values)
             await until(None, lambda: len(seen) == len(values), "listening")
+            if isinstance(bank, softplc.OpcUaBank):  # the path its endpoints are served at
+                paths.update(urlsplit(e.EndpointUrl).path for e in await server.get_endpoints())
         finally:
             await bank.stop()
-        return seen
+        return seen, namespaces, paths
 
-    seen = asyncio.run(run())
+    seen, namespaces, paths = asyncio.run(run())
     assert seen == {p.field: v for p, v in values}
+    if declared.protocol == "opcua":  # the rig's nodes are in ns=2: one namespace added
+        assert {str(p.address).split(";")[0] for p in declared.points} == {"ns=2"}
+        assert namespaces[2:] == ["urn:rcsgen:softplc:0"]
+        assert urlsplit(declared.url).path == "/rig" and paths == {"/rig"}
 
 
 def test_validate_connect_names_a_device_that_does_not_answer_and_a_point_it_lacks(
@@ -317,6 +332,16 @@ def test_the_plc_refuses_a_bad_argument_in_one_line(
     err = capsys.readouterr().err
     assert err.startswith("softplc: ") and said in err, err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_the_plc_needs_the_package_and_a_device(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as done:
+        softplc.main([])
+    assert done.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "python -m rcsgen.tools.softplc: error: the following arguments are required: --io, "
+        "--device"
+    )
 
 
 def test_the_plc_refuses_a_plant_without_a_field_its_device_binds(
@@ -498,24 +523,64 @@ def test_a_bench_says_which_plc_did_not_start_and_why(
     finally:
         bench.close()
     assert str(error.value) == (
-        "the soft PLC of device `tank` did not start: softplc: [Errno 2] No such file or "
-        f"directory: '{nothing}/__init__.py'"
+        f"the soft PLC of device `tank` did not start: softplc: no generated package in {nothing}"
     )
 
 
 def test_the_plcs_help_says_what_it_is(capsys: pytest.CaptureFixture[str]) -> None:
+    """The help word for word (however wide the terminal wraps it): what the PLC is, and what
+    each option means, the files it writes for the bench (a scenario's bench reads them)."""
     with pytest.raises(SystemExit) as done:
         softplc.main(["--help"])
     assert done.value.code == 0
     said = capsys.readouterr().out
     assert said.startswith("usage: python -m rcsgen.tools.softplc ")
+    words = " ".join(said.split())
     described = (
-        "A soft PLC: a system's simulators behind a Modbus TCP server, for hardware in the loop."
+        "A soft PLC: a system's simulators behind Modbus TCP or OPC UA servers, for hardware in "
+        "the loop."
     )
-    assert described in " ".join(said.split())  # however wide the terminal wraps it
-    # what the files it writes for the bench hold (a scenario's bench reads them)
-    for contract in (
-        "--ready READY write the ports here once listening (a line per --device, in order)",
-        "--report REPORT write the plant's world here (JSON) when stopped",
-    ):
-        assert contract in " ".join(said.split())
+    assert described in words
+    assert words.split("options: ", 1)[1] == " ".join(
+        (
+            "-h, --help show this help message and exit",
+            "--plant PLANT the generated package whose simulators run here (default: none, a",
+            "PLC whose inputs hold --io's initial world values, or --world's)",
+            "--hooks HOOKS the plant's spec directory (its hook modules)",
+            "--io IO the generated package that declares the device",
+            "--device DEVICE a device this PLC serves (repeatable: one plant behind several",
+            "devices)",
+            "--host HOST",
+            "--port PORT the port of each --device, in their order (default: the declared one;",
+            "0: any)",
+            "--period PERIOD seconds per PLC cycle (default: the devices' shortest poll period)",
+            "--control CONTROL a directory: a file named after a device holding `unplug` stops",
+            "its server (connections closed, new ones refused), `replug` starts it again on its",
+            "port",
+            "--cycles CYCLES stop after this many cycles",
+            "--set KEY=VALUE a run setting of the plant",
+            "--world FIELD=VALUE start the plant's world field FIELD at VALUE (repeatable)",
+            "--report REPORT write the plant's world here (JSON) when stopped",
+            "--ready READY write the ports here once listening (a line per --device, in order)",
+        )
+    )
+
+
+def test_a_plant_runs_its_packages_simulators_and_nothing_else(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The PLC's plant is the package's simulator modules alone (the cell's `arm`), each a
+    root where nothing of the plant supervises it, run a cycle at a time."""
+    repo = RIG.parents[3]
+    monkeypatch.setattr(sys, "path", list(sys.path))  # the hooks' directory put first: undone
+    plant = softplc.Plant(import_package(repo / "generated" / "cell", repo / "specs" / "cell"), {})
+    assert plant.layout.SIMULATORS == ("arm",)
+    assert list(plant.process.instances) == ["arm"] and plant.process.plan.roots == ("arm",)
+    plant.process.run_cycle()
+    assert plant.process.cycle == 1
+
+
+def test_a_cycle_waits_the_rest_of_its_period_and_a_late_one_does_not_catch_up() -> None:
+    assert softplc._paced(10.5, 10.0) == (10.5, 0.5)  # early: the rest of the period
+    assert softplc._paced(10.0, 10.0) == (10.0, 0.0)
+    assert softplc._paced(10.0, 10.25) == (10.25, 0.0)  # late: the next period from now

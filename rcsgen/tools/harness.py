@@ -71,9 +71,13 @@ def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleTy
     for the package itself); `hooks_dir` is put on sys.path for the user's hook modules."""
     if hooks_dir is not None:
         _use_hooks_from(hooks_dir)
-    name = f"_rcsgen_{next(_unique)}_{package_dir.name}"
-    spec = importlib.util.spec_from_file_location(
-        name, package_dir / "__init__.py", submodule_search_locations=[str(package_dir)]
+    name, init = f"_rcsgen_{next(_unique)}_{package_dir.name}", package_dir / "__init__.py"
+    spec = (
+        importlib.util.spec_from_file_location(
+            name, init, submodule_search_locations=[str(package_dir)]
+        )
+        if init.is_file()  # (else the spec is made all the same, and loading it says Errno 2)
+        else None
     )
     if spec is None or spec.loader is None:
         raise ImportError(f"no generated package in {package_dir}")

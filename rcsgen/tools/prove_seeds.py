@@ -36,8 +36,6 @@ from ..compiler.prove.adapter import ERROR, EXECUTING, NOT_READY
 from ..compiler.prove.properties import Finding
 from ..compiler.prove.system import SystemProof, prove
 
-KINDS = ("drop-send", "drop-error-branch", "swap-order", "forget-echo", "remove-halt")
-
 
 @dataclass(frozen=True)
 class Seed:

@@ -1,4 +1,4 @@
-"""A soft PLC: a system's simulators behind a Modbus TCP server, for hardware in the loop.
+"""A soft PLC: a system's simulators behind Modbus TCP or OPC UA servers, for hardware in the loop.
 
 `python -m rcsgen.tools.softplc --plant generated/miner --hooks specs/miner --io
 generated/miner_hil --device plc --port 5020` runs the plant package's simulator modules
@@ -275,6 +275,14 @@ def _libraries_there(devices: list[Any]) -> None:
             )
 
 
+def _paced(due: float, now: float) -> tuple[float, float]:
+    """(when the next cycle is due, the seconds to wait for it): the rest of its period; a
+    cycle that ran past it makes the next one due now, not a burst of cycles catching up."""
+    if due < now:
+        return now, 0.0
+    return due, due - now
+
+
 async def _serve(args: argparse.Namespace, plant: Plant, devices: list[Any]) -> int:
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -293,10 +301,7 @@ async def _serve(args: argparse.Namespace, plant: Plant, devices: list[Any]) -> 
         while not stop.is_set() and (args.cycles is None or cycles < args.cycles):
             await _cycle(served, plant, control)
             cycles += 1
-            next_at += period
-            delay = next_at - time.monotonic()
-            if delay < 0:
-                next_at, delay = time.monotonic(), 0.0
+            next_at, delay = _paced(next_at + period, time.monotonic())
             try:
                 await asyncio.wait_for(stop.wait(), delay)
             except TimeoutError:
