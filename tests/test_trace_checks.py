@@ -425,3 +425,41 @@ def test_a_line_holding_two_records_is_one_located_error() -> None:
     two = line(2, {"a": 1, "b": True}, co=co())
     with pytest.raises(traces.TraceError, match=r"^t:2: not a trace line: Extra data"):
         traces.parse(GOOD + "\n" + two + ", " + two + "\n", "t")
+
+
+TIMING_FIGURES = {
+    "period_ms": 50.0,
+    "wakeups": 3,
+    "period_error_mean_us": 12.5,
+    "period_error_max_us": 40.0,
+    "lateness_p99_us": 30.0,
+    "lateness_max_us": 31.5,
+    "lateness_warnings": 0,
+}
+
+
+@pytest.mark.parametrize(
+    "figures",
+    [
+        {},
+        {"period_ms": 50.0},  # a figure the views show is missing
+        TIMING_FIGURES | {"extra": 1},
+        TIMING_FIGURES | {"wakeups": "3"},
+        TIMING_FIGURES | {"lateness_warnings": True},
+        TIMING_FIGURES | {"lateness_p99_us": float("nan")},  # json writes NaN, and reads it
+        TIMING_FIGURES | {"period_ms": float("inf")},
+    ],
+)
+def test_a_timing_record_holds_every_figure_as_a_finite_number(figures: dict[str, object]) -> None:
+    """A paced run's timing record is read whole (its figures reach the trace view's title
+    and its page's JSON, which a NaN would make unreadable): anything else is one located
+    error naming the figures, never a KeyError or a page that does not load."""
+    timing = json.dumps({"cycle": 1, "periodicity": TIMING_FIGURES})
+    assert traces.parse(GOOD + "\n" + timing, "t").periodicity == TIMING_FIGURES
+    with pytest.raises(traces.TraceError) as caught:
+        traces.parse(GOOD + "\n" + json.dumps({"cycle": 1, "periodicity": figures}), "t")
+    assert str(caught.value) == (
+        "t:2: not a trace line (a `periodicity` record's figures are lateness_max_us, "
+        "lateness_p99_us, lateness_warnings, period_error_max_us, period_error_mean_us, "
+        "period_ms, wakeups, each a finite number)"
+    )
