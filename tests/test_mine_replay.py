@@ -169,3 +169,18 @@ def test_a_views_own_comment_stays_out_of_its_page(view: str) -> None:
     shell = player._asset(player.SHELL)
     assert page.count("-->") == shell.count("-->")
     assert "part of the replay page" not in page
+
+
+@pytest.mark.parametrize("view", ["mine", "sea", "station"])
+def test_a_views_style_and_script_reach_the_page_whole_in_the_shells_slots(view: str) -> None:
+    """A view's `<style>` and `<script>` blocks go into the shell's slots as they are: not a
+    character of their tags, not one of their text lost."""
+    asset = player._asset(f"{view}_view.html")
+    style = asset[asset.index("<style>\n") + len("<style>\n") : asset.index("\n</style>")]
+    script = asset[asset.index("<script>\n") + len("<script>\n") : asset.index("\n</script>")]
+    page = player.page(view, "t", {}, {})
+    shell = player._asset(player.SHELL)
+    before_style = shell[: shell.index("{{STYLE}}")].rsplit("\n", 2)[-2]
+    assert f"\n{before_style}\n{style}\n</style>\n</head>\n" in page
+    assert f'\n"use strict";\n{script}\n</script>\n' in page
+    assert page.count("<style>") == 1 and page.count("</style>") == 1

@@ -1,0 +1,64 @@
+"""The station view's time line on a trace made here (tests/test_station_view.py draws the
+golden runs): which runs of work become bars, and the SVG a person sees, element by element."""
+
+from __future__ import annotations
+
+import pytest
+
+from rcsgen.tools.traces import station
+from rcsgen.tools.traces.read import Trace
+
+
+def column(commands: list[str], statuses: list[str]) -> dict[str, list[object]]:
+    return {"command": commands, "status": statuses, "state": ["S"] * len(commands)}
+
+
+@pytest.fixture
+def trace() -> Trace:
+    busy = "EXECUTING"
+    return Trace(
+        "t",
+        [10, 11, 12, 13],
+        ["cmm", "fx", "op/fx"],
+        {  # INIT and HALT are no work; a new command is a new bar; DONE ends one
+            "cmm": column(
+                ["INIT", "INSPECT_FEATURE", "INSPECT_FEATURE", "HALT"], ["DONE", busy, busy, busy]
+            ),
+            "fx": column(["A", "A", "B", "B"], [busy, busy, busy, "DONE"]),
+            "op/fx": column(["NOP", "NOP", "NOP", "PLACE_PART"], ["DONE", "DONE", "DONE", busy]),
+        },
+    )
+
+
+def test_a_bar_is_a_run_of_one_command_executing_and_init_or_halt_is_none(trace: Trace) -> None:
+    assert station.bars(trace) == [
+        station.Bar(1, 0, 1, "A"),
+        station.Bar(1, 2, 2, "B"),
+        station.Bar(3, 3, 3, "PLACE_PART"),  # the operator's lane: every op/ channel
+        station.Bar(4, 1, 2, "INSPECT_FEATURE"),
+    ]
+
+
+def test_the_time_line_draws_each_lane_and_bar_to_scale(trace: Trace) -> None:
+    """720 pixels for 4 cycles: 180 a cycle, after the 70 of the labels; a lane 18 high,
+    and 14 under the six for the axis."""
+    lanes = "".join(
+        f'<text class="label" x="0" y="{18 * i + 13}">{label}</text>'
+        f'<line class="lane" x1="70" y1="{18 * i + 18}" x2="790" y2="{18 * i + 18}"/>'
+        for i, label in enumerate(["planner", "fixturing", "tooling", "operator", "CMM", "probe"])
+    )
+    assert station.timeline(trace, station.bars(trace)) == (
+        '<svg id="timeline" width="790" height="122" viewBox="0 0 790 122">'
+        + lanes
+        + '<rect class="bar A" data-lane="fixturing" data-first="10" data-last="11" x="70.0" '
+        'y="21" width="360.0" height="12"><title>A 10–11</title></rect>'
+        '<rect class="bar B" data-lane="fixturing" data-first="12" data-last="12" x="430.0" '
+        'y="21" width="180.0" height="12"><title>B 12–12</title></rect>'
+        '<rect class="bar PLACE_PART" data-lane="operator" data-first="13" data-last="13" '
+        'x="610.0" y="57" width="180.0" height="12"><title>PLACE_PART 13–13</title></rect>'
+        '<rect class="bar INSPECT_FEATURE" data-lane="CMM" data-first="11" data-last="12" '
+        'x="250.0" y="75" width="360.0" height="12"><title>INSPECT_FEATURE 11–12</title></rect>'
+        '<text class="axis" x="70" y="120">cycle 10</text>'
+        '<text class="axis end" x="790" y="120">13</text>'
+        '<line id="cursor" x1="70" y1="0" x2="70" y2="108"/></svg>'
+    )
