@@ -7,6 +7,7 @@ replays the miner's golden traces through the real mine hooks."""
 
 from __future__ import annotations
 
+import re
 from types import SimpleNamespace
 from typing import Any
 
@@ -184,3 +185,19 @@ def test_a_views_style_and_script_reach_the_page_whole_in_the_shells_slots(view:
     assert f"\n{before_style}\n{style}\n</style>\n</head>\n" in page
     assert f'\n"use strict";\n{script}\n</script>\n' in page
     assert page.count("<style>") == 1 and page.count("</style>") == 1
+
+
+def test_the_page_carries_every_world_field_its_script_reads_and_no_other() -> None:
+    """The mine view's script reads world fields by name (`get("tail_in_position", i, 0)`,
+    `number("coal_mined", ...)`): each must be one the payload carries (REQUIRED or SHOWN),
+    and a trace holding them all has each on its page."""
+    script = player._asset("mine_view.html")
+    read = set(re.findall(r'\b(?:get|number)\("([a-z_]+)"', script))
+    assert read == {*mine.REQUIRED, *mine.SHOWN}
+    every = {name: [0.5, 1.5, 1.5, 2.0] for name in mine.SHOWN}
+    t = trace(**every, drum_on_cmd=[False] * 4)
+    result = mine.replay(t, HOOKS, "make", {})  # type: ignore[arg-type]
+    system = SimpleNamespace(name="miner", title="The miner", cycle_period=0.1)
+    data = mine.payload(t, [], result, HOOKS, system, "")  # type: ignore[arg-type]
+    assert list(data["world"]) == [*mine.REQUIRED, *mine.SHOWN]
+    assert data["world"]["tail_in_position"] == [0.5, 1.5, 1.5, 2.0]
