@@ -6,6 +6,7 @@ a controller simulated where no stand-in runs (or a module its stand-in replaces
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -176,3 +177,29 @@ def test_ground_truth_its_simulators_write_may_be_forced(
     refused by E280 when the system compiles, so E425's other half is never reached here.)"""
     body = EVENT + "force: {true_x: 3.5}\n  - cycle: 5\n    unforce: [true_x]\n"
     assert said(tmp_path, systems["miner"], body) == []
+
+
+def test_e411_names_every_controller_the_process_can_simulate_or_none(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """E411's hint lists the process's stand-ins in order, `none` where it has none."""
+    assert said(tmp_path, systems["platoon"], "process: pa\nsimulate: [alpha]\n") == [
+        (
+            "E411",
+            "`alpha` cannot be simulated in this scenario: system.yaml declares no stand-in for it",
+            "process `pa` can simulate none",
+        )
+    ]
+    miner = systems["miner"]
+    pc1 = next(p for p in miner.processes if p.name == "pc1")
+    two = replace(pc1, stand_ins=pc1.stand_ins | {"bm": ("bm_sim", ("bm",))})
+    processes = tuple(two if p is pc1 else p for p in miner.processes)
+    assert said(
+        tmp_path, replace(miner, processes=processes), "process: pc1\nsimulate: [pp]\n"
+    ) == [
+        (
+            "E411",
+            "`pp` cannot be simulated in this scenario: system.yaml declares no stand-in for it",
+            "process `pc1` can simulate `bm`, `cr`",
+        )
+    ]
