@@ -401,3 +401,41 @@ def test_a_scripted_reply_carries_its_reason():
     runner.reply(harness, "alpha", "ERROR(NO_FIX)")  # type: ignore[arg-type]
     runner.reply(harness, "op/fx", "DONE")  # type: ignore[arg-type]
     assert replies == [("alpha", "ERROR", "NO_FIX"), ("op/fx", "DONE", "")]
+
+
+def test_a_device_is_pointed_at_its_soft_plc_on_loopback_keeping_an_endpoints_path():
+    from rcsgen.tools.scenario.devices import served_at
+
+    assert served_at("modbus", "", 5020) == "127.0.0.1:5020"
+    assert served_at("opcua", "opc.tcp://10.0.0.2:4840/rig/a", 5021) == (
+        "opc.tcp://127.0.0.1:5021/rig/a"
+    )
+    assert served_at("opcua", "opc.tcp://10.0.0.2:4840", 5022) == "opc.tcp://127.0.0.1:5022/"
+
+
+def test_an_output_read_back_holds_its_safe_value_within_half_a_step_of_its_scale():
+    from rcsgen.tools.scenario.devices import holds
+
+    assert holds(0.0, 0.0, 1.0) and holds(0.45, 0.0, 1.0) and holds(-0.5, 0.0, -1.0)
+    assert not holds(0.55, 0.0, 1.0) and not holds(0.06, 0.0, 0.1)
+    assert not holds(float("nan"), 0.0, 1.0)  # an output read back as NaN is not safe
+
+
+def test_a_soft_plcs_command_names_its_devices_plant_and_the_scenarios_settings(tmp_path):
+    from rcsgen.tools.scenario.devices import Bench, Plc
+
+    made = scenario([])
+    made.settings = {"seed": "3", "level": "1.5"}
+    bench = Bench(made, tmp_path / "pkg", tmp_path / "scratch")
+    plc = Plc(["tank", "pumps"], tmp_path / "plant", tmp_path / "plant_pkg")
+    scratch = tmp_path / "scratch"
+    assert bench.command(plc, [0, 5020], scratch / "tank.port") == [
+        sys.executable,
+        *("-m", "rcsgen.tools.softplc", "--io", str(tmp_path / "pkg")),
+        *("--device", "tank", "--port", "0", "--device", "pumps", "--port", "5020"),
+        *("--ready", str(scratch / "tank.port"), "--control", str(scratch / "control")),
+        *("--plant", str(tmp_path / "plant_pkg"), "--hooks", str(tmp_path / "plant")),
+        *("--set", "seed=3", "--set", "level=1.5"),
+    ]
+    alone = Plc(["tank"], None, None)  # a PLC of its own: no plant
+    assert "--plant" not in bench.command(alone, [0], scratch / "tank.port")
