@@ -407,8 +407,8 @@ def test_a_device_is_pointed_at_its_soft_plc_on_loopback_keeping_an_endpoints_pa
     from rcsgen.tools.scenario.devices import served_at
 
     assert served_at("modbus", "", 5020) == "127.0.0.1:5020"
-    assert served_at("opcua", "opc.tcp://10.0.0.2:4840/rig/a", 5021) == (
-        "opc.tcp://127.0.0.1:5021/rig/a"
+    assert served_at("opcua", "opc.tcp://10.0.0.2:4840/rig", 5021) == (
+        "opc.tcp://127.0.0.1:5021/rig"
     )
     assert served_at("opcua", "opc.tcp://10.0.0.2:4840", 5022) == "opc.tcp://127.0.0.1:5022/"
 
