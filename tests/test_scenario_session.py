@@ -5,8 +5,15 @@ saying so, with what was written said back."""
 
 from __future__ import annotations
 
+import io
+import os
+import signal
 from pathlib import Path
 
+import pytest
+
+from rcsgen.tools.scenario import session
+from rcsgen.tools.scenario.model import Scenario
 from rcsgen.tools.scenario.session import Ran, check, write_interrupted, write_traces
 from rcsgen.tools.traces import full_lines
 
@@ -69,3 +76,26 @@ def test_an_interrupted_runs_trace_ends_with_a_line_saying_so(tmp_path: Path) ->
     assert write_interrupted(Ran(lines=[]), refused, "SIGTERM") == (
         f"cannot write trace `{refused}`: `{tmp_path / 'file'}` is a file, not a folder"
     )
+
+
+def test_a_signal_while_the_harness_opens_stops_the_run_and_says_which_signal(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """SIGTERM while the system is being made: nothing ran, nothing failed, the run says it
+    was SIGTERM, and the handlers are the default ones again afterwards."""
+
+    def opening(*_: object) -> None:
+        os.kill(os.getpid(), signal.SIGTERM)  # its handler raises in this frame
+        raise AssertionError("the signal did not stop the opening")
+
+    monkeypatch.setattr(session, "open_harness", opening)
+    scenario = Scenario("s", "S", tmp_path / "s.yaml", tmp_path, None, 5, None, [], [])
+    saved = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    try:
+        ran = session.execute(scenario, tmp_path, False, lambda _: None, io.StringIO())
+        handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    finally:
+        signal.signal(signal.SIGINT, saved[0])
+        signal.signal(signal.SIGTERM, saved[1])
+    assert (ran.signal, ran.failed, ran.harness, ran.result) == (signal.SIGTERM, None, None, None)
+    assert handlers == (signal.default_int_handler, signal.SIG_DFL)
