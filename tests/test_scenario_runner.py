@@ -439,3 +439,21 @@ def test_a_soft_plcs_command_names_its_devices_plant_and_the_scenarios_settings(
     ]
     alone = Plc(["tank"], None, None)  # a PLC of its own: no plant
     assert "--plant" not in bench.command(alone, [0], scratch / "tank.port")
+
+
+def test_a_paced_run_wakes_on_its_schedule_and_a_late_cycle_starts_it_again(monkeypatch):
+    """Pace: each cycle starts a period after the one before, however long its work took;
+    a cycle that ends past its time starts the next at once and the schedule from there
+    (no burst to catch up). The timing record counts every wake-up after the first."""
+    clock = SimpleNamespace(t=100.0)
+    monkeypatch.setattr(runner.time, "monotonic", lambda: clock.t)
+    monkeypatch.setattr(runner.time, "sleep", lambda s: setattr(clock, "t", clock.t + s))
+    pace = runner.Pace(0.1)
+    woke = []
+    for work in (0.03, 0.25, 0.01, 0.0):
+        pace.wait()
+        woke.append(clock.t)
+        clock.t += work
+    assert woke == pytest.approx([100.0, 100.1, 100.35, 100.45])
+    figures = json.loads(pace.line(7) or "")
+    assert figures["cycle"] == 7 and figures["periodicity"]["wakeups"] == 3
