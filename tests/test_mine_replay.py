@@ -201,3 +201,10 @@ def test_the_page_carries_every_world_field_its_script_reads_and_no_other() -> N
     data = mine.payload(t, [], result, HOOKS, system, "")  # type: ignore[arg-type]
     assert list(data["world"]) == [*mine.REQUIRED, *mine.SHOWN]
     assert data["world"]["tail_in_position"] == [0.5, 1.5, 1.5, 2.0]
+
+
+def test_a_replay_page_refuses_data_that_is_not_finite_rather_than_write_nan() -> None:
+    """The page parses its data with JSON.parse, which has no NaN or Infinity: the payloads
+    make every number finite or null (view.number), and a NaN that got past is refused."""
+    with pytest.raises(ValueError, match="Out of range float values are not JSON compliant"):
+        player.page("mine", "t", {}, {"n": float("nan")})

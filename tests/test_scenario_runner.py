@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
+import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
@@ -457,3 +459,56 @@ def test_a_paced_run_wakes_on_its_schedule_and_a_late_cycle_starts_it_again(monk
     assert woke == pytest.approx([100.0, 100.1, 100.35, 100.45])
     figures = json.loads(pace.line(7) or "")
     assert figures["cycle"] == 7 and figures["periodicity"]["wakeups"] == 3
+
+
+class FakePopen:
+    """What Bench.close does to a PLC's process: its signals and waits, in order."""
+
+    def __init__(self, running: bool, stops: bool = True) -> None:
+        self.running, self.stops, self.done = running, stops, []
+
+    def poll(self) -> int | None:
+        return None if self.running else 0
+
+    def send_signal(self, signum: int) -> None:
+        self.done.append(signum)
+
+    def terminate(self) -> None:
+        self.done.append("terminate")
+
+    def kill(self) -> None:
+        self.done.append("kill")
+
+    def wait(self, timeout: float) -> int:
+        self.done.append(f"wait {timeout:g}")
+        if self.running and not self.stops and self.done[-2] != "kill":
+            raise subprocess.TimeoutExpired("plc", timeout)
+        return 0
+
+
+def test_closing_the_bench_thaws_and_stops_each_running_plc_once_and_kills_one_that_stays(
+    tmp_path, monkeypatch
+):
+    import signal
+
+    from rcsgen.tools.scenario.devices import Bench, Plc
+
+    monkeypatch.setenv("RCSGEN_IO_TANK", "127.0.0.1:5020")
+    bench = Bench(scenario([]), tmp_path, tmp_path / "scratch")
+    bench.saved = {"RCSGEN_IO_TANK": "10.0.0.1:502"}
+    running, ended, stuck = (
+        Plc(["a", "b"], None, None),
+        Plc(["c"], None, None),
+        Plc(["d"], None, None),
+    )
+    running.popen, ended.popen, stuck.popen = (
+        FakePopen(True),
+        FakePopen(False),
+        FakePopen(True, False),
+    )
+    bench.plcs = {"a": running, "b": running, "c": ended, "d": stuck}  # a and b share one
+    bench.close()
+    assert running.popen.done == [signal.SIGCONT, "terminate", "wait 20"]
+    assert ended.popen.done == ["wait 20"]  # it had exited: nothing sent to it
+    assert stuck.popen.done == [signal.SIGCONT, "terminate", "wait 20", "kill", "wait 10"]
+    assert os.environ["RCSGEN_IO_TANK"] == "10.0.0.1:502"

@@ -99,3 +99,13 @@ def test_a_signal_while_the_harness_opens_stops_the_run_and_says_which_signal(
         signal.signal(signal.SIGTERM, saved[1])
     assert (ran.signal, ran.failed, ran.harness, ran.result) == (signal.SIGTERM, None, None, None)
     assert handlers == (signal.default_int_handler, signal.SIG_DFL)
+
+
+def test_a_trace_path_that_is_a_folder_is_refused_with_the_systems_reason(tmp_path: Path) -> None:
+    folder = tmp_path / "t.jsonl"
+    folder.mkdir()
+    [problem] = write_traces(full_lines(GOLDEN)[:1], [folder])
+    assert (problem.code, problem.message) == (
+        "E419",
+        f"cannot write trace `{folder}`: Is a directory",
+    )

@@ -62,3 +62,17 @@ def test_the_time_line_draws_each_lane_and_bar_to_scale(trace: Trace) -> None:
         '<text class="axis end" x="790" y="120">13</text>'
         '<line id="cursor" x1="70" y1="0" x2="70" y2="108"/></svg>'
     )
+
+
+def test_a_bar_shorter_than_a_pixel_is_drawn_a_pixel_wide() -> None:
+    """1,440 cycles on 720 pixels: a one-cycle bar would be half a pixel, and is drawn one."""
+    n = 1440
+    trace = Trace(
+        "t",
+        list(range(n)),
+        ["cmm"],
+        {"cmm": column(["INIT"] * (n - 1) + ["HOME"], ["EXECUTING"] * n)},
+    )
+    [bar] = station.bars(trace)
+    assert bar == station.Bar(4, n - 1, n - 1, "HOME")
+    assert 'x="789.5" y="75" width="1.0" height="12"' in station.timeline(trace, [bar])
