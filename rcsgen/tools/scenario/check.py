@@ -46,7 +46,6 @@ from .model import (
 )
 
 DEFAULT_MAX_CYCLES = 1000
-_TYPE_WORDS = {"bool": "a bool (true or false)", "int": "an int", "float": "a float"}
 
 
 def check_scenario(
