@@ -3,6 +3,8 @@ golden runs): which runs of work become bars, and the SVG a person sees, element
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import pytest
 
 from rcsgen.tools.traces import station
@@ -76,3 +78,84 @@ def test_a_bar_shorter_than_a_pixel_is_drawn_a_pixel_wide() -> None:
     [bar] = station.bars(trace)
     assert bar == station.Bar(4, n - 1, n - 1, "HOME")
     assert 'x="789.5" y="75" width="1.0" height="12"' in station.timeline(trace, [bar])
+
+
+def test_the_station_follows_the_commands_as_they_complete() -> None:
+    """The plate is mounted from EQUIP_SETUP's DONE on; the part is on the fixture from
+    PLACE_PART's DONE, re-seated while REFIXTURE_PART runs and back when it is DONE,
+    unloaded at UNLOAD_PART's DONE; the probe is in the head from LOAD_PROBE's DONE on."""
+    fx = [
+        ("EQUIP_SETUP", "EXECUTING"),
+        ("EQUIP_SETUP", "DONE"),
+        ("PLACE_PART", "EXECUTING"),
+        ("PLACE_PART", "DONE"),
+        ("REFIXTURE_PART", "EXECUTING"),
+        ("REFIXTURE_PART", "DONE"),
+        ("UNLOAD_PART", "EXECUTING"),
+        ("UNLOAD_PART", "DONE"),
+        ("NOP", "DONE"),
+    ]
+    tl = [("LOAD_PROBE", "EXECUTING")] * 2 + [("LOAD_PROBE", "DONE")] + [("NOP", "DONE")] * 6
+    trace = Trace(
+        "t",
+        list(range(9)),
+        ["fx", "tl"],
+        {
+            "fx": column([c for c, _ in fx], [s for _, s in fx]),
+            "tl": column([c for c, _ in tl], [s for _, s in tl]),
+        },
+    )
+    assert station.station(trace) == {
+        "plate": ["none"] + ["mounted"] * 8,
+        "part": ["none"] * 3
+        + ["on the fixture", "re-seated", "on the fixture", "on the fixture"]
+        + ["unloaded"] * 2,
+        "probe": ["none"] * 2 + ["loaded"] * 7,
+    }
+    assert station.done_at(trace, "fx", "PLACE_PART") == [i == 3 for i in range(9)]
+
+
+def test_the_page_data_holds_the_requests_results_and_panel_as_runs_of_its_strings() -> None:
+    def asking(command: str, states: list[str]) -> dict[str, list[object]]:
+        return {"command": [command] * 3, "status": ["EXECUTING"] * 3, "state": states}
+
+    idle = column(["NOP"] * 3, ["DONE"] * 3)
+    results = [None, {"measured": 2, "failed": 0}, {"measured": 2, "failed": 1}]
+    columns = {
+        "fx": idle,
+        "tl": idle,
+        "op/fx": asking("PLACE_PART", ["S0", "ASKING", "ASKING"]),
+        "op/tl": asking("LOAD_PROBE", ["S0", "S0", "ASKING"]),
+        "ms": column(["M"] * 3, ["DONE"] * 3) | {"result": results},
+    }
+    trace = Trace("t", [5, 6, 7], sorted(columns), columns)
+    data = station.payload(trace, SimpleNamespace(name="insp", cycle_period=0.1))  # type: ignore[arg-type]
+    strings = data.pop("strings")
+
+    def said(runs: list[int]) -> list[tuple[int, object]]:
+        return [(at, strings[i]) for at, i in zip(runs[::2], runs[1::2], strict=True)]
+
+    assert said(data.pop("requests")) == [
+        (0, ""),
+        (1, "PLACE_PART (for fx)"),
+        (2, "PLACE_PART (for fx), LOAD_PROBE (for tl)"),
+    ]
+    assert {k: said(v) for k, v in data.pop("results").items()} == {
+        "ms.measured": [(0, "None"), (1, "2")],
+        "ms.failed": [(0, "None"), (1, "0"), (2, "1")],
+    }
+    assert [c["module"] for c in data.pop("controllers")] == ["ms", "fx", "tl"]  # PANEL's order
+    assert {k: said(v) for k, v in data.pop("station").items()} == {
+        "plate": [(0, "none")],
+        "part": [(0, "none")],
+        "probe": [(0, "none")],
+    }
+    assert data == {
+        "source": "t",
+        "system": "insp",
+        "period": 0.1,
+        "speed": 10,
+        "n": 3,
+        "cycles": [5, 6, 7],
+        "lanes": {"label": 70, "width": 720},
+    }
