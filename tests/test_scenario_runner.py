@@ -512,3 +512,50 @@ def test_closing_the_bench_thaws_and_stops_each_running_plc_once_and_kills_one_t
     assert ended.popen.done == ["wait 20"]  # it had exited: nothing sent to it
     assert stuck.popen.done == [signal.SIGCONT, "terminate", "wait 20", "kill", "wait 10"]
     assert os.environ["RCSGEN_IO_TANK"] == "10.0.0.1:502"
+
+
+class DeviceHarness:
+    """What safe_check and io_counts read: a device's record, the world and what is held."""
+
+    def __init__(self, state: int, world: dict[str, Any], held: dict[str, str]) -> None:
+        counts = dict.fromkeys(("reads", "writes", "timeouts", "retries", "errors"), 1)
+        values = {"state": state, "last_ok_ns": 5, "last_error": 1, "round_trip_ns": 2_000_000}
+        values |= counts | {"reconnects": 2, "losses": 1, "address": "10.0.0.5:502"}
+        device = SimpleNamespace(
+            protocol="modbus", process="p", poll_period=0.1, timeout=0.5,
+            inputs=[SimpleNamespace(field="level"), SimpleNamespace(field="flow")],
+        )  # fmt: skip
+        record = SimpleNamespace(read=lambda buf: values.items())
+        self.layout = SimpleNamespace(
+            IO_DEVICES={"tank": device},
+            IO_RECORDS={"tank": record},
+            SAFE_VALUES={"valve_cmd": 0.0, "pump_on": False},
+        )
+        self.buf = bytearray()
+        self.world = SimpleNamespace(
+            snapshot=lambda names: {n: world[n] for n in names}, overrides=lambda: held
+        )
+
+
+def test_a_lost_device_is_safe_when_lost_its_inputs_stale_and_every_actuator_latched():
+    from rcsgen.runtime.io_points import LOST, ONLINE
+
+    safe = {"valve_cmd": 0.0, "pump_on": False}
+    latched = {"valve_cmd": "SAFE", "pump_on": "SAFE"}
+    lost = DeviceHarness(LOST, safe, latched)
+    assert runner.io_counts(lost, "tank", lost.layout.IO_DEVICES["tank"]) == {
+        "state": "LOST",
+        **dict.fromkeys(("reads", "writes", "timeouts", "retries", "errors"), 1),
+        "reconnects": 2,
+        "losses": 1,
+        "stale": ["level", "flow"],
+    }
+    assert runner.safe_check(lost, "tank") == []
+    online = DeviceHarness(ONLINE, {"valve_cmd": 50.0, "pump_on": False}, {"pump_on": "SAFE"})
+    assert runner.safe_check(online, "tank") == [
+        "device `tank` is ONLINE, not LOST",
+        "its inputs marked stale are [], not ['level', 'flow']",
+        "`valve_cmd` is 50.0, not latched at safe 0.0",
+    ]
+    unlatched = DeviceHarness(LOST, safe, {"valve_cmd": "SAFE"})  # safe, but not held so
+    assert runner.safe_check(unlatched, "tank") == ["`pump_on` is False, not latched at safe False"]
