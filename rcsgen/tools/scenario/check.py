@@ -804,9 +804,7 @@ class _Checker:
         covered = {
             (a.operator, a.task) for a in script.answers if a.task is not None and a.client is None
         }
-        for operator in self.operators.values():
-            if default.operator not in (None, operator.name):
-                continue
+        for operator in self.operators.values():  # (a default names no operator: the schema)
             for task in operator.commands:
                 if not task.results or {(None, task.name), (operator.name, task.name)} & covered:
                     continue
