@@ -159,3 +159,19 @@ def test_the_page_data_holds_the_requests_results_and_panel_as_runs_of_its_strin
         "cycles": [5, 6, 7],
         "lanes": {"label": 70, "width": 720},
     }
+
+
+def test_each_lane_shows_its_own_modules_work() -> None:
+    rows = ["jp", "fx", "tl", "op/fx", "op/tl", "cmm", "prim", "wc"]  # wc: on no lane
+    busy = column(["WORK"], ["EXECUTING"])
+    trace = Trace("t", [1], sorted(rows), {row: busy for row in rows})
+    lanes = [(station.LANES[bar.lane][0], bar.first) for bar in station.bars(trace)]
+    assert lanes == [
+        ("planner", 0),
+        ("fixturing", 0),
+        ("tooling", 0),
+        ("operator", 0),  # op/fx
+        ("operator", 0),  # op/tl
+        ("CMM", 0),
+        ("probe", 0),
+    ]
