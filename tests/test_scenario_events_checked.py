@@ -132,8 +132,15 @@ def test_simulated_controllers_and_the_modules_their_stand_ins_replace(
     assert " gh" not in hint and " cv" not in hint  # cr_sim stands in for cr, gh, cv and ct
 
 
-def test_a_string_field_set_or_forced_with_what_it_cannot_hold(tmp_path: Path) -> None:
-    [submarine] = compile_paths([SPECS / "submarine"]).systems
+@pytest.fixture(scope="module")
+def submarine() -> IRSystem:
+    [system] = compile_paths([SPECS / "submarine"]).systems
+    return system
+
+
+def test_a_string_field_set_or_forced_with_what_it_cannot_hold(
+    tmp_path: Path, submarine: IRSystem
+) -> None:
     too_long = "events:\n  - cycle: 3\n    set: {announcement: " + "x" * 49 + "}\n"
     assert said(tmp_path, submarine, too_long) == [
         (
@@ -201,5 +208,20 @@ def test_e411_names_every_controller_the_process_can_simulate_or_none(
             "E411",
             "`pp` cannot be simulated in this scenario: system.yaml declares no stand-in for it",
             "process `pc1` can simulate `bm`, `cr`",
+        )
+    ]
+
+
+def test_an_answer_for_any_task_checks_each_result_against_the_task_that_records_it(
+    tmp_path: Path, submarine: IRSystem
+) -> None:
+    """An answer that names no task may answer any: `choice` is checked against the one
+    task that records it (the OOD's DEPTH_CASUALTY), past the EOOW's tasks that record none."""
+    body = "operator:\n  answers:\n    - {answer: DONE, results: {choice: FLY}}\n"
+    assert said(tmp_path, submarine, body) == [
+        (
+            "E408",
+            "result `choice` is an enum: give one of PLANES, MBT_BLOW, not `FLY`",
+            "declared values: `MBT_BLOW`, `PLANES`",
         )
     ]
