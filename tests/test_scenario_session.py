@@ -109,3 +109,20 @@ def test_a_trace_path_that_is_a_folder_is_refused_with_the_systems_reason(tmp_pa
         "E419",
         f"cannot write trace `{folder}`: Is a directory",
     )
+
+
+def test_a_system_that_builds_with_an_error_leaves_the_scenario_unchecked(tmp_path: Path) -> None:
+    """A system directory holding a copy of its system (E231: two systems named `cell`):
+    the system built, but with an error, so the scenario is not checked against it."""
+    specs = HERE.parent / "specs" / "cell"
+    for folder in (tmp_path, tmp_path / "copy"):
+        folder.mkdir(exist_ok=True)
+        for spec in specs.glob("*.yaml"):
+            (folder / spec.name).write_bytes(spec.read_bytes())
+    (tmp_path / "scenarios").mkdir()
+    path = tmp_path / "scenarios" / "s.yaml"
+    path.write_text("scenario: s\ntitle: A scenario\nmax_cycles: 20\n")
+    checked = check(path)
+    assert checked.system is None and checked.scenario is None
+    [specs_said] = checked.diagnostics
+    assert [d.code for d in specs_said.errors] == ["E231"]
