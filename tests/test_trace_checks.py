@@ -463,3 +463,17 @@ def test_a_timing_record_holds_every_figure_as_a_finite_number(figures: dict[str
         "lateness_p99_us, lateness_warnings, period_error_max_us, period_error_mean_us, "
         "period_ms, wakeups, each a finite number)"
     )
+
+
+def test_a_cause_is_kept_on_the_lines_that_have_one_and_empty_on_the_others() -> None:
+    """`cause` is written only where a module with reasons is in ERROR passed up from a
+    subordinate: its column is that text there and '' on every other line."""
+    failed = co(status="ERROR", reason="LOST", cause="sub: TIMED_OUT")
+    lines = [
+        line(1, {}, co=co(reason="NONE")),
+        line(2, {}, co=failed),
+        line(3, {}, co=co(reason="NONE")),
+    ]
+    trace = traces.parse("\n".join(lines), "t")
+    assert trace.columns["co"]["cause"] == ["", "sub: TIMED_OUT", ""]
+    assert trace.columns["co"]["reason"] == ["NONE", "LOST", "NONE"]
