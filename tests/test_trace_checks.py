@@ -67,6 +67,14 @@ GOOD = line(1, {"a": 1, "b": True}, co=co())
             "t:2: not a trace line (`removed` names modules.co.zz, which is not there)",
         ),
         ('{"cycle": 2, "removed": [["modules", "co", "rule"]]}', "t:2: module co has no `rule`"),
+        (
+            '{"cycle": 2, "removed": [["modules", "co"]]}',
+            "t:2: modules differ from the first line's (co)",
+        ),
+        (
+            '{"cycle": 2, "changed": {"modules": {"zz": {}}}}',
+            "t:2: modules differ from the first line's (zz)",
+        ),
         ('{"cycle": 2, "removed": ["a"]}', 't:2: not a trace line (`removed` holds "a", not a'),
         ('{"cycle": 2, "changed": 5}', "t:2: not a trace line (`changed` is not an object"),
         ('{"cycle": 1, "changed": {}}', "t:2: cycle 1 after cycle 1"),
