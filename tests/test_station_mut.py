@@ -3,6 +3,7 @@ golden runs): which runs of work become bars, and the SVG a person sees, element
 
 from __future__ import annotations
 
+import re
 from types import SimpleNamespace
 
 import pytest
@@ -175,3 +176,35 @@ def test_each_lane_shows_its_own_modules_work() -> None:
         ("CMM", 0),
         ("probe", 0),
     ]
+
+
+def test_the_page_draws_a_bar_on_each_lane_and_a_trace_without_the_station_is_refused() -> None:
+    """The whole page from a trace made here: every lane's work a bar on its own lane, the
+    station's plate, part and probe in its data; a trace without fixturing, tooling and the
+    CMM is refused in one line naming what it lacks."""
+    fx = ["EQUIP_SETUP", "PLACE_PART", "REFIXTURE_PART", "REFIXTURE_PART", "UNLOAD_PART"]
+    fx_status = ["DONE", "DONE", "EXECUTING", "DONE", "DONE"]
+    work = column(["WORK"] * 5, ["EXECUTING"] * 5)
+    columns = {row: work for row in ("jp", "tl", "op/fx", "cmm", "prim")}
+    columns["fx"] = column(fx, fx_status)
+    columns["ms"] = column(["M"] * 5, ["DONE"] * 5) | {"result": [{"measured": 1}] * 5}
+    trace = Trace("run.jsonl", list(range(5)), sorted(columns), columns)
+    system = SimpleNamespace(name="insp", cycle_period=0.1)
+    page = station.render(trace, system)  # type: ignore[arg-type]
+    drawn = re.findall(r'<rect class="bar (\w+)" data-lane="(\w+)"', page)
+    assert drawn == [
+        ("WORK", "planner"),
+        ("REFIXTURE_PART", "fixturing"),
+        ("WORK", "tooling"),
+        ("WORK", "operator"),
+        ("WORK", "CMM"),
+        ("WORK", "probe"),
+    ]
+    assert "<title>run.jsonl · insp: the part on the CMM</title>" in page
+    lacking = Trace("t", [1], ["cmm"], {"cmm": work})
+    with pytest.raises(station.StationError) as refused:
+        station.render(lacking, system)  # type: ignore[arg-type]
+    assert str(refused.value) == (
+        "t is not a trace of an inspection workstation: it has no fx, tl (the station view "
+        "reads fixturing, tooling and the CMM)"
+    )
