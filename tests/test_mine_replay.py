@@ -208,3 +208,20 @@ def test_a_replay_page_refuses_data_that_is_not_finite_rather_than_write_nan() -
     make every number finite or null (view.number), and a NaN that got past is refused."""
     with pytest.raises(ValueError, match="Out of range float values are not JSON compliant"):
         player.page("mine", "t", {}, {"n": float("nan")})
+
+
+def test_the_machine_takes_each_size_the_hooks_declare() -> None:
+    t = trace()
+    sized = SimpleNamespace(make=Mine, cut_coal=cut_coal, CELL=0.5, DRUM_RADIUS=0.7)
+    sized.DRUM_HALF_WIDTH, sized.DRUM_HEIGHT, sized.ROOF_ANGLE, sized.FLOOR_ANGLE = 1.5, 0.5, 25, -5
+    result = mine.replay(t, sized, "make", {})  # type: ignore[arg-type]
+    system = SimpleNamespace(name="miner", title="The miner", cycle_period=0.1)
+    data = mine.payload(t, [], result, sized, system, "")  # type: ignore[arg-type]
+    assert data["machine"] == {
+        "drum_radius": 0.7,
+        "drum_half_width": 1.5,
+        "drum_height": 0.5,
+        "roof_angle": 25.0,
+        "floor_angle": -5.0,
+        "seam": 2.0,
+    }

@@ -87,6 +87,14 @@ ANSWER = "operator:\n  answers:\n    - {task: "
                 "declared results: `decision`, `post`",
             ),
         ),
+        (
+            EVENT + "answer: {request: ldr/pl, status: ERROR, results: {post: 1.0}}\n",
+            (
+                "E911",
+                "results given with ERROR: what the person records goes with DONE only",
+                "write `answer: DONE`, or leave `results:` out",
+            ),
+        ),
     ],
 )
 def test_platoon_events_and_answers(

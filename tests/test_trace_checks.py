@@ -485,3 +485,12 @@ def test_a_cause_is_kept_on_the_lines_that_have_one_and_empty_on_the_others() ->
     trace = traces.parse("\n".join(lines), "t")
     assert trace.columns["co"]["cause"] == ["", "sub: TIMED_OUT", ""]
     assert trace.columns["co"]["reason"] == ["NONE", "LOST", "NONE"]
+
+
+def test_a_change_line_may_remove_what_the_reader_does_not_read() -> None:
+    """`removed` paths outside `modules` and `world` (the `overrides` a run latched and
+    released) are the writer's business: the line is read, its modules as before."""
+    for path in (["overrides"], ["overrides", "a"]):
+        text = GOOD + "\n" + json.dumps({"cycle": 2, "removed": [path]})
+        trace = traces.parse(text, "t")
+        assert trace.cycles == [1, 2] and trace.columns["co"]["state"] == ["NOP", "NOP"]
