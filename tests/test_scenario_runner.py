@@ -559,3 +559,34 @@ def test_a_lost_device_is_safe_when_lost_its_inputs_stale_and_every_actuator_lat
     ]
     unlatched = DeviceHarness(LOST, safe, {"valve_cmd": "SAFE"})  # safe, but not held so
     assert runner.safe_check(unlatched, "tank") == ["`pump_on` is False, not latched at safe False"]
+
+
+def test_the_devices_still_up_are_each_read_back_past_one_that_is_down(monkeypatch, tmp_path):
+    """not_safe_on_survivors: a device down (unplugged, frozen) or binding no actuator is
+    not asked; every other device is, each read back on its own probe."""
+    import rcsgen.runtime.io_cycle as io_cycle
+    from rcsgen.tools.scenario.devices import Bench
+
+    def output(name: str) -> Any:
+        return SimpleNamespace(field=name, scale=1.0)
+
+    devices = {
+        "down": SimpleNamespace(outputs=[output("valve_cmd")]),
+        "bare": SimpleNamespace(outputs=[output("lamp")]),  # no actuator with a safe value
+        "tank": SimpleNamespace(outputs=[output("valve_cmd")]),
+        "pumps": SimpleNamespace(outputs=[output("pump_cmd")]),
+    }
+    monkeypatch.setattr(io_cycle, "relocated", lambda device: device)
+    layout = SimpleNamespace(IO_DEVICES=devices, SAFE_VALUES={"valve_cmd": 0.0, "pump_cmd": 0.0})
+    made = scenario([])
+    made.devices = {name: SoftPlc(name, None, AT) for name in devices}
+    bench = Bench(made, tmp_path / "pkg", tmp_path / "scratch")
+    bench.down = {"down"}
+    held = {"tank": 50.0, "pumps": 3.0}
+    bench.probes = {
+        name: SimpleNamespace(read_point=lambda point, v=value: v) for name, value in held.items()
+    }
+    assert bench.not_safe_on_survivors(layout) == [  # type: ignore[arg-type]
+        "device `tank` holds `valve_cmd` 50.0, not its safe 0.0",
+        "device `pumps` holds `pump_cmd` 3.0, not its safe 0.0",
+    ]
