@@ -201,6 +201,7 @@ def test_the_page_draws_a_bar_on_each_lane_and_a_trace_without_the_station_is_re
         ("WORK", "probe"),
     ]
     assert "<title>run.jsonl · insp: the part on the CMM</title>" in page
+    assert station.STATION in page and page.count('<svg id="timeline"') == 1
     lacking = Trace("t", [1], ["cmm"], {"cmm": work})
     with pytest.raises(station.StationError) as refused:
         station.render(lacking, system)  # type: ignore[arg-type]
