@@ -63,6 +63,14 @@ ANSWER = "operator:\n  answers:\n    - {task: "
             ),
         ),
         (
+            EVENT + "force: {enemy_present: yes}\n",
+            (
+                "E408",
+                "forced world field `enemy_present` is a bool: give true or false, not `yes`",
+                "`yes` is a string in YAML 1.2; write true or false",
+            ),
+        ),
+        (
             EVENT + "force: {enemy_presnt: true}\n",
             (
                 "E409",

@@ -209,3 +209,12 @@ def test_the_page_draws_a_bar_on_each_lane_and_a_trace_without_the_station_is_re
         "t is not a trace of an inspection workstation: it has no fx, tl (the station view "
         "reads fixturing, tooling and the CMM)"
     )
+
+
+def test_a_bar_starts_where_its_first_cycle_is_to_a_tenth_of_a_pixel() -> None:
+    """7 cycles on 720 pixels: a bar from the second cycle starts 102.857... pixels after
+    the labels' 70, drawn at 172.9, and is as wide (102.9)."""
+    work = column(["INIT", "WORK"] + ["INIT"] * 5, ["DONE", "EXECUTING"] + ["DONE"] * 5)
+    trace = Trace("t", list(range(7)), ["cmm"], {"cmm": work})
+    svg = station.timeline(trace, station.bars(trace))
+    assert 'x="172.9" y="75" width="102.9" height="12"' in svg
