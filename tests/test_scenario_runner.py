@@ -590,3 +590,16 @@ def test_the_devices_still_up_are_each_read_back_past_one_that_is_down(monkeypat
         "device `tank` holds `valve_cmd` 50.0, not its safe 0.0",
         "device `pumps` holds `pump_cmd` 3.0, not its safe 0.0",
     ]
+
+
+def test_a_trace_line_of_a_system_with_fieldbus_io_holds_each_devices_state_and_counts():
+    from rcsgen.runtime.io_points import LOST
+
+    harness = DeviceHarness(LOST, {"valve_cmd": 0.0}, {})
+    harness.modules, harness.cycles = [], 4
+    harness.world.snapshot = lambda names: {}
+    line = json.loads(runner.trace_line(harness, []))  # type: ignore[arg-type]
+    assert line["io"] == {
+        "tank": runner.io_counts(harness, "tank", harness.layout.IO_DEVICES["tank"])
+    }
+    assert line["io"]["tank"]["state"] == "LOST"
