@@ -141,6 +141,8 @@ def test_a_trace_given_as_text_is_named_trace_in_its_errors() -> None:
         traces.parse("\n")
     with pytest.raises(traces.TraceError, match=r"^<trace>:1: not a trace line"):
         traces.parse("[]")
+    with pytest.raises(traces.TraceError, match=r"^<trace>:2: not a trace line"):
+        traces.parse_lines([GOOD, "[]"])  # lines given without a name, as parse gives them
 
 
 @pytest.mark.parametrize(
