@@ -113,6 +113,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_trace_payload",
             "test_trace_recording",
             "test_trace_stored",
+            "test_station_mut",
             "test_tool_values",
             "test_type_words",
             "test_traces",

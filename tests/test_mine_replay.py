@@ -7,6 +7,7 @@ replays the miner's golden traces through the real mine hooks."""
 
 from __future__ import annotations
 
+import re
 from types import SimpleNamespace
 from typing import Any
 
@@ -169,3 +170,58 @@ def test_a_views_own_comment_stays_out_of_its_page(view: str) -> None:
     shell = player._asset(player.SHELL)
     assert page.count("-->") == shell.count("-->")
     assert "part of the replay page" not in page
+
+
+@pytest.mark.parametrize("view", ["mine", "sea", "station"])
+def test_a_views_style_and_script_reach_the_page_whole_in_the_shells_slots(view: str) -> None:
+    """A view's `<style>` and `<script>` blocks go into the shell's slots as they are: not a
+    character of their tags, not one of their text lost."""
+    asset = player._asset(f"{view}_view.html")
+    style = asset[asset.index("<style>\n") + len("<style>\n") : asset.index("\n</style>")]
+    script = asset[asset.index("<script>\n") + len("<script>\n") : asset.index("\n</script>")]
+    page = player.page(view, "t", {}, {})
+    shell = player._asset(player.SHELL)
+    before_style = shell[: shell.index("{{STYLE}}")].rsplit("\n", 2)[-2]
+    assert f"\n{before_style}\n{style}\n</style>\n</head>\n" in page
+    assert f'\n"use strict";\n{script}\n</script>\n' in page
+    assert page.count("<style>") == 1 and page.count("</style>") == 1
+
+
+def test_the_page_carries_every_world_field_its_script_reads_and_no_other() -> None:
+    """The mine view's script reads world fields by name (`get("tail_in_position", i, 0)`,
+    `number("coal_mined", ...)`): each must be one the payload carries (REQUIRED or SHOWN),
+    and a trace holding them all has each on its page."""
+    script = player._asset("mine_view.html")
+    read = set(re.findall(r'\b(?:get|number)\("([a-z_]+)"', script))
+    assert read == {*mine.REQUIRED, *mine.SHOWN}
+    every = {name: [0.5, 1.5, 1.5, 2.0] for name in mine.SHOWN}
+    t = trace(**every, drum_on_cmd=[False] * 4)
+    result = mine.replay(t, HOOKS, "make", {})  # type: ignore[arg-type]
+    system = SimpleNamespace(name="miner", title="The miner", cycle_period=0.1)
+    data = mine.payload(t, [], result, HOOKS, system, "")  # type: ignore[arg-type]
+    assert list(data["world"]) == [*mine.REQUIRED, *mine.SHOWN]
+    assert data["world"]["tail_in_position"] == [0.5, 1.5, 1.5, 2.0]
+
+
+def test_a_replay_page_refuses_data_that_is_not_finite_rather_than_write_nan() -> None:
+    """The page parses its data with JSON.parse, which has no NaN or Infinity: the payloads
+    make every number finite or null (view.number), and a NaN that got past is refused."""
+    with pytest.raises(ValueError, match="Out of range float values are not JSON compliant"):
+        player.page("mine", "t", {}, {"n": float("nan")})
+
+
+def test_the_machine_takes_each_size_the_hooks_declare() -> None:
+    t = trace()
+    sized = SimpleNamespace(make=Mine, cut_coal=cut_coal, CELL=0.5, DRUM_RADIUS=0.7)
+    sized.DRUM_HALF_WIDTH, sized.DRUM_HEIGHT, sized.ROOF_ANGLE, sized.FLOOR_ANGLE = 1.5, 0.5, 25, -5
+    result = mine.replay(t, sized, "make", {})  # type: ignore[arg-type]
+    system = SimpleNamespace(name="miner", title="The miner", cycle_period=0.1)
+    data = mine.payload(t, [], result, sized, system, "")  # type: ignore[arg-type]
+    assert data["machine"] == {
+        "drum_radius": 0.7,
+        "drum_half_width": 1.5,
+        "drum_height": 0.5,
+        "roof_angle": 25.0,
+        "floor_angle": -5.0,
+        "seam": 2.0,
+    }

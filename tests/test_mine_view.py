@@ -26,6 +26,20 @@ GOLDEN = REPO / "tests" / "golden"
 SETTINGS = {"map": "maps/box_cut.map", "seed": "7"}
 
 
+def read_by_the_script() -> set[str]:
+    """The world fields the mine view's script reads by name (`get("tail_in_position", ...)`)."""
+    from importlib import resources
+
+    own = resources.files("rcsgen.tools.traces").joinpath("assets", "mine_view.html")
+    return set(re.findall(r'\b(?:get|number)\("([a-z_]+)"', own.read_text("utf-8")))
+
+
+def page_data(page: str) -> dict:
+    return json.loads(
+        re.search(r'id="mine-data" type="application/json">(.*?)</script>', page).group(1)
+    )
+
+
 @pytest.fixture(scope="module")
 def system():
     return compile_paths([MINER]).systems[0]
@@ -91,10 +105,9 @@ def test_cli_writes_the_replay_beside_the_trace(tmp_path, monkeypatch):
     result = rcsgen("trace", "mine", copy)
     assert result.exit_code == 0, result.output
     page = (tmp_path / "pop_out.mine.html").read_text(encoding="utf-8")
-    data = json.loads(
-        re.search(r'id="mine-data" type="application/json">(.*?)</script>', page).group(1)
-    )
+    data = page_data(page)
     assert data["scenario"] == "pop_out" and data["mismatch"] is None
+    assert set(data["world"]) == read_by_the_script()  # the golden traces every one
     assert [c["module"] for c in data["controllers"]] == ["sec", "sb", "co", "cc", "cr", "vg", "wm"]
     assert page == rcsgen_page(copy, tmp_path)  # same trace, same bytes
 
@@ -152,6 +165,7 @@ def test_the_mine_view_is_on_the_replay_views_shared_shell(system):
     trace = traces.load(GOLDEN / "box_cut.jsonl")
     page, _ = mine_view.render(trace, traces.lanes(trace, system), system, MINER, SETTINGS)
     assert player in page and page.count("// The player:") == 1
+    assert set(page_data(page)["world"]) == read_by_the_script()  # the golden traces every one
     own = assets.joinpath("mine_view.html").read_text("utf-8")
     for part in ("slider", "setTimeout", "location.hash", "<header", "JSON.parse"):
         assert part not in own, part
@@ -168,3 +182,4 @@ def test_text_from_the_run_cannot_close_the_pages_script(system):
     data = template[1].split("</script>", 1)[0]
     assert "</" not in data
     assert json.loads(data)["scenario"] == name
+    assert set(json.loads(data)["world"]) == read_by_the_script()  # the golden traces each

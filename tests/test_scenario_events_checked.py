@@ -6,6 +6,7 @@ a controller simulated where no stand-in runs (or a module its stand-in replaces
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -62,6 +63,14 @@ ANSWER = "operator:\n  answers:\n    - {task: "
             ),
         ),
         (
+            EVENT + "force: {enemy_present: yes}\n",
+            (
+                "E408",
+                "forced world field `enemy_present` is a bool: give true or false, not `yes`",
+                "`yes` is a string in YAML 1.2; write true or false",
+            ),
+        ),
+        (
             EVENT + "force: {enemy_presnt: true}\n",
             (
                 "E409",
@@ -84,6 +93,14 @@ ANSWER = "operator:\n  answers:\n    - {task: "
                 "E911",
                 "`extra` is not a result of SPOT_REPORT",
                 "declared results: `decision`, `post`",
+            ),
+        ),
+        (
+            EVENT + "answer: {request: ldr/pl, status: ERROR, results: {post: 1.0}}\n",
+            (
+                "E911",
+                "results given with ERROR: what the person records goes with DONE only",
+                "write `answer: DONE`, or leave `results:` out",
             ),
         ),
     ],
@@ -131,8 +148,15 @@ def test_simulated_controllers_and_the_modules_their_stand_ins_replace(
     assert " gh" not in hint and " cv" not in hint  # cr_sim stands in for cr, gh, cv and ct
 
 
-def test_a_string_field_set_or_forced_with_what_it_cannot_hold(tmp_path: Path) -> None:
-    [submarine] = compile_paths([SPECS / "submarine"]).systems
+@pytest.fixture(scope="module")
+def submarine() -> IRSystem:
+    [system] = compile_paths([SPECS / "submarine"]).systems
+    return system
+
+
+def test_a_string_field_set_or_forced_with_what_it_cannot_hold(
+    tmp_path: Path, submarine: IRSystem
+) -> None:
     too_long = "events:\n  - cycle: 3\n    set: {announcement: " + "x" * 49 + "}\n"
     assert said(tmp_path, submarine, too_long) == [
         (
@@ -176,3 +200,44 @@ def test_ground_truth_its_simulators_write_may_be_forced(
     refused by E280 when the system compiles, so E425's other half is never reached here.)"""
     body = EVENT + "force: {true_x: 3.5}\n  - cycle: 5\n    unforce: [true_x]\n"
     assert said(tmp_path, systems["miner"], body) == []
+
+
+def test_e411_names_every_controller_the_process_can_simulate_or_none(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    """E411's hint lists the process's stand-ins in order, `none` where it has none."""
+    assert said(tmp_path, systems["platoon"], "process: pa\nsimulate: [alpha]\n") == [
+        (
+            "E411",
+            "`alpha` cannot be simulated in this scenario: system.yaml declares no stand-in for it",
+            "process `pa` can simulate none",
+        )
+    ]
+    miner = systems["miner"]
+    pc1 = next(p for p in miner.processes if p.name == "pc1")
+    two = replace(pc1, stand_ins=pc1.stand_ins | {"bm": ("bm_sim", ("bm",))})
+    processes = tuple(two if p is pc1 else p for p in miner.processes)
+    assert said(
+        tmp_path, replace(miner, processes=processes), "process: pc1\nsimulate: [pp]\n"
+    ) == [
+        (
+            "E411",
+            "`pp` cannot be simulated in this scenario: system.yaml declares no stand-in for it",
+            "process `pc1` can simulate `bm`, `cr`",
+        )
+    ]
+
+
+def test_an_answer_for_any_task_checks_each_result_against_the_task_that_records_it(
+    tmp_path: Path, submarine: IRSystem
+) -> None:
+    """An answer that names no task may answer any: `choice` is checked against the one
+    task that records it (the OOD's DEPTH_CASUALTY), past the EOOW's tasks that record none."""
+    body = "operator:\n  answers:\n    - {answer: DONE, results: {choice: FLY}}\n"
+    assert said(tmp_path, submarine, body) == [
+        (
+            "E408",
+            "result `choice` is an enum: give one of PLANES, MBT_BLOW, not `FLY`",
+            "declared values: `MBT_BLOW`, `PLANES`",
+        )
+    ]

@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from test_scenario_checks import SPECS, said, systems  # noqa: F401  (a fixture)
+from test_scenario_checks import SPECS, said, systems, written  # noqa: F401  (a fixture)
 
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.ir import IRSystem
@@ -52,6 +52,16 @@ def faults(*steps: str) -> str:
 def test_device_faults_follow_one_another_in_order(hil, tmp_path, steps, want) -> None:
     got = said(tmp_path, hil, faults(*steps))
     assert got == [("E426", message, ORDER_HINT) for message in want]
+
+
+def test_a_checked_device_fault_is_the_events_fault_in_order(hil, tmp_path) -> None:
+    path = written(tmp_path, hil, "scenario: s\ntitle: S\n" + faults("freeze", "thaw"))
+    scenario, found = check_scenario(path, hil)
+    assert scenario is not None and not found.errors
+    assert [(e.cycle, e.device and (e.device.name, e.device.do)) for e in scenario.events] == [
+        (2, ("plc", "freeze")),
+        (3, ("plc", "thaw")),
+    ]
 
 
 def test_a_device_fault_names_a_device_served_and_declared(hil, tmp_path) -> None:

@@ -49,6 +49,12 @@ def test_bounds_are_inclusive_and_a_bool_is_no_number() -> None:
     assert not Expected("status", AT, value="DONE").met("ERROR")
 
 
+def test_an_exact_number_is_met_by_that_number_only() -> None:
+    twelve = Expected("cycles", AT, value=12)
+    assert twelve.met(12) and twelve.met(12.0)
+    assert not any(twelve.met(v) for v in (13, 11.5, "12", None))
+
+
 def test_a_figure_names_a_world_field_a_reason_or_a_result() -> None:
     world = {"depth": 1.5}
     statuses = {

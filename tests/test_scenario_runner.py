@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
+import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
@@ -401,3 +403,203 @@ def test_a_scripted_reply_carries_its_reason():
     runner.reply(harness, "alpha", "ERROR(NO_FIX)")  # type: ignore[arg-type]
     runner.reply(harness, "op/fx", "DONE")  # type: ignore[arg-type]
     assert replies == [("alpha", "ERROR", "NO_FIX"), ("op/fx", "DONE", "")]
+
+
+def test_a_device_is_pointed_at_its_soft_plc_on_loopback_keeping_an_endpoints_path():
+    from rcsgen.tools.scenario.devices import served_at
+
+    assert served_at("modbus", "", 5020) == "127.0.0.1:5020"
+    assert served_at("opcua", "opc.tcp://10.0.0.2:4840/rig", 5021) == (
+        "opc.tcp://127.0.0.1:5021/rig"
+    )
+    assert served_at("opcua", "opc.tcp://10.0.0.2:4840", 5022) == "opc.tcp://127.0.0.1:5022/"
+
+
+def test_an_output_read_back_holds_its_safe_value_within_half_a_step_of_its_scale():
+    from rcsgen.tools.scenario.devices import holds
+
+    assert holds(0.0, 0.0, 1.0) and holds(0.45, 0.0, 1.0) and holds(-0.5, 0.0, -1.0)
+    assert not holds(0.55, 0.0, 1.0) and not holds(0.06, 0.0, 0.1)
+    assert not holds(float("nan"), 0.0, 1.0)  # an output read back as NaN is not safe
+
+
+def test_a_soft_plcs_command_names_its_devices_plant_and_the_scenarios_settings(tmp_path):
+    from rcsgen.tools.scenario.devices import Bench, Plc
+
+    made = scenario([])
+    made.settings = {"seed": "3", "level": "1.5"}
+    bench = Bench(made, tmp_path / "pkg", tmp_path / "scratch")
+    plc = Plc(["tank", "pumps"], tmp_path / "plant", tmp_path / "plant_pkg")
+    scratch = tmp_path / "scratch"
+    assert bench.command(plc, [0, 5020], scratch / "tank.port") == [
+        sys.executable,
+        *("-m", "rcsgen.tools.softplc", "--io", str(tmp_path / "pkg")),
+        *("--device", "tank", "--port", "0", "--device", "pumps", "--port", "5020"),
+        *("--ready", str(scratch / "tank.port"), "--control", str(scratch / "control")),
+        *("--plant", str(tmp_path / "plant_pkg"), "--hooks", str(tmp_path / "plant")),
+        *("--set", "seed=3", "--set", "level=1.5"),
+    ]
+    alone = Plc(["tank"], None, None)  # a PLC of its own: no plant
+    assert "--plant" not in bench.command(alone, [0], scratch / "tank.port")
+
+
+def test_a_paced_run_wakes_on_its_schedule_and_a_late_cycle_starts_it_again(monkeypatch):
+    """Pace: each cycle starts a period after the one before, however long its work took;
+    a cycle that ends past its time starts the next at once and the schedule from there
+    (no burst to catch up). The timing record counts every wake-up after the first."""
+    clock = SimpleNamespace(t=100.0)
+    monkeypatch.setattr(runner.time, "monotonic", lambda: clock.t)
+    monkeypatch.setattr(runner.time, "sleep", lambda s: setattr(clock, "t", clock.t + s))
+    pace = runner.Pace(0.1)
+    woke = []
+    for work in (0.03, 0.25, 0.01, 0.0):
+        pace.wait()
+        woke.append(clock.t)
+        clock.t += work
+    assert woke == pytest.approx([100.0, 100.1, 100.35, 100.45])
+    figures = json.loads(pace.line(7) or "")
+    assert figures["cycle"] == 7 and figures["periodicity"]["wakeups"] == 3
+
+
+class FakePopen:
+    """What Bench.close does to a PLC's process: its signals and waits, in order."""
+
+    def __init__(self, running: bool, stops: bool = True) -> None:
+        self.running, self.stops, self.done = running, stops, []
+
+    def poll(self) -> int | None:
+        return None if self.running else 0
+
+    def send_signal(self, signum: int) -> None:
+        self.done.append(signum)
+
+    def terminate(self) -> None:
+        self.done.append("terminate")
+
+    def kill(self) -> None:
+        self.done.append("kill")
+
+    def wait(self, timeout: float) -> int:
+        self.done.append(f"wait {timeout:g}")
+        if self.running and not self.stops and self.done[-2] != "kill":
+            raise subprocess.TimeoutExpired("plc", timeout)
+        return 0
+
+
+def test_closing_the_bench_thaws_and_stops_each_running_plc_once_and_kills_one_that_stays(
+    tmp_path, monkeypatch
+):
+    import signal
+
+    from rcsgen.tools.scenario.devices import Bench, Plc
+
+    monkeypatch.setenv("RCSGEN_IO_TANK", "127.0.0.1:5020")
+    bench = Bench(scenario([]), tmp_path, tmp_path / "scratch")
+    bench.saved = {"RCSGEN_IO_TANK": "10.0.0.1:502"}
+    running, ended, stuck = (
+        Plc(["a", "b"], None, None),
+        Plc(["c"], None, None),
+        Plc(["d"], None, None),
+    )
+    running.popen, ended.popen, stuck.popen = (
+        FakePopen(True),
+        FakePopen(False),
+        FakePopen(True, False),
+    )
+    bench.plcs = {"a": running, "b": running, "c": ended, "d": stuck}  # a and b share one
+    bench.close()
+    assert running.popen.done == [signal.SIGCONT, "terminate", "wait 20"]
+    assert ended.popen.done == ["wait 20"]  # it had exited: nothing sent to it
+    assert stuck.popen.done == [signal.SIGCONT, "terminate", "wait 20", "kill", "wait 10"]
+    assert os.environ["RCSGEN_IO_TANK"] == "10.0.0.1:502"
+
+
+class DeviceHarness:
+    """What safe_check and io_counts read: a device's record, the world and what is held."""
+
+    def __init__(self, state: int, world: dict[str, Any], held: dict[str, str]) -> None:
+        counts = dict.fromkeys(("reads", "writes", "timeouts", "retries", "errors"), 1)
+        values = {"state": state, "last_ok_ns": 5, "last_error": 1, "round_trip_ns": 2_000_000}
+        values |= counts | {"reconnects": 2, "losses": 1, "address": "10.0.0.5:502"}
+        device = SimpleNamespace(
+            protocol="modbus", process="p", poll_period=0.1, timeout=0.5,
+            inputs=[SimpleNamespace(field="level"), SimpleNamespace(field="flow")],
+        )  # fmt: skip
+        record = SimpleNamespace(read=lambda buf: values.items())
+        self.layout = SimpleNamespace(
+            IO_DEVICES={"tank": device},
+            IO_RECORDS={"tank": record},
+            SAFE_VALUES={"valve_cmd": 0.0, "pump_on": False},
+        )
+        self.buf = bytearray()
+        self.world = SimpleNamespace(
+            snapshot=lambda names: {n: world[n] for n in names}, overrides=lambda: held
+        )
+
+
+def test_a_lost_device_is_safe_when_lost_its_inputs_stale_and_every_actuator_latched():
+    from rcsgen.runtime.io_points import LOST, ONLINE
+
+    safe = {"valve_cmd": 0.0, "pump_on": False}
+    latched = {"valve_cmd": "SAFE", "pump_on": "SAFE"}
+    lost = DeviceHarness(LOST, safe, latched)
+    assert runner.io_counts(lost, "tank", lost.layout.IO_DEVICES["tank"]) == {
+        "state": "LOST",
+        **dict.fromkeys(("reads", "writes", "timeouts", "retries", "errors"), 1),
+        "reconnects": 2,
+        "losses": 1,
+        "stale": ["level", "flow"],
+    }
+    assert runner.safe_check(lost, "tank") == []
+    online = DeviceHarness(ONLINE, {"valve_cmd": 50.0, "pump_on": False}, {"pump_on": "SAFE"})
+    assert runner.safe_check(online, "tank") == [
+        "device `tank` is ONLINE, not LOST",
+        "its inputs marked stale are [], not ['level', 'flow']",
+        "`valve_cmd` is 50.0, not latched at safe 0.0",
+    ]
+    unlatched = DeviceHarness(LOST, safe, {"valve_cmd": "SAFE"})  # safe, but not held so
+    assert runner.safe_check(unlatched, "tank") == ["`pump_on` is False, not latched at safe False"]
+
+
+def test_the_devices_still_up_are_each_read_back_past_one_that_is_down(monkeypatch, tmp_path):
+    """not_safe_on_survivors: a device down (unplugged, frozen) or binding no actuator is
+    not asked; every other device is, each read back on its own probe."""
+    import rcsgen.runtime.io_cycle as io_cycle
+    from rcsgen.tools.scenario.devices import Bench
+
+    def output(name: str) -> Any:
+        return SimpleNamespace(field=name, scale=1.0)
+
+    devices = {
+        "down": SimpleNamespace(outputs=[output("valve_cmd")]),
+        "bare": SimpleNamespace(outputs=[output("lamp")]),  # no actuator with a safe value
+        "tank": SimpleNamespace(outputs=[output("valve_cmd")]),
+        "pumps": SimpleNamespace(outputs=[output("pump_cmd")]),
+    }
+    monkeypatch.setattr(io_cycle, "relocated", lambda device: device)
+    layout = SimpleNamespace(IO_DEVICES=devices, SAFE_VALUES={"valve_cmd": 0.0, "pump_cmd": 0.0})
+    made = scenario([])
+    made.devices = {name: SoftPlc(name, None, AT) for name in devices}
+    bench = Bench(made, tmp_path / "pkg", tmp_path / "scratch")
+    bench.down = {"down"}
+    held = {"tank": 50.0, "pumps": 3.0}
+    bench.probes = {
+        name: SimpleNamespace(read_point=lambda point, v=value: v) for name, value in held.items()
+    }
+    assert bench.not_safe_on_survivors(layout) == [  # type: ignore[arg-type]
+        "device `tank` holds `valve_cmd` 50.0, not its safe 0.0",
+        "device `pumps` holds `pump_cmd` 3.0, not its safe 0.0",
+    ]
+
+
+def test_a_trace_line_of_a_system_with_fieldbus_io_holds_each_devices_state_and_counts():
+    from rcsgen.runtime.io_points import LOST
+
+    harness = DeviceHarness(LOST, {"valve_cmd": 0.0}, {})
+    harness.modules, harness.cycles = [], 4
+    harness.world.snapshot = lambda names: {}
+    line = json.loads(runner.trace_line(harness, []))  # type: ignore[arg-type]
+    assert line["io"] == {
+        "tank": runner.io_counts(harness, "tank", harness.layout.IO_DEVICES["tank"])
+    }
+    assert line["io"]["tank"]["state"] == "LOST"

@@ -5,8 +5,15 @@ saying so, with what was written said back."""
 
 from __future__ import annotations
 
+import io
+import os
+import signal
 from pathlib import Path
 
+import pytest
+
+from rcsgen.tools.scenario import session
+from rcsgen.tools.scenario.model import Scenario
 from rcsgen.tools.scenario.session import Ran, check, write_interrupted, write_traces
 from rcsgen.tools.traces import full_lines
 
@@ -69,3 +76,53 @@ def test_an_interrupted_runs_trace_ends_with_a_line_saying_so(tmp_path: Path) ->
     assert write_interrupted(Ran(lines=[]), refused, "SIGTERM") == (
         f"cannot write trace `{refused}`: `{tmp_path / 'file'}` is a file, not a folder"
     )
+
+
+def test_a_signal_while_the_harness_opens_stops_the_run_and_says_which_signal(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """SIGTERM while the system is being made: nothing ran, nothing failed, the run says it
+    was SIGTERM, and the handlers are the default ones again afterwards."""
+
+    def opening(*_: object) -> None:
+        os.kill(os.getpid(), signal.SIGTERM)  # its handler raises in this frame
+        raise AssertionError("the signal did not stop the opening")
+
+    monkeypatch.setattr(session, "open_harness", opening)
+    scenario = Scenario("s", "S", tmp_path / "s.yaml", tmp_path, None, 5, None, [], [])
+    saved = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    try:
+        ran = session.execute(scenario, tmp_path, False, lambda _: None, io.StringIO())
+        handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    finally:
+        signal.signal(signal.SIGINT, saved[0])
+        signal.signal(signal.SIGTERM, saved[1])
+    assert (ran.signal, ran.failed, ran.harness, ran.result) == (signal.SIGTERM, None, None, None)
+    assert handlers == (signal.default_int_handler, signal.SIG_DFL)
+
+
+def test_a_trace_path_that_is_a_folder_is_refused_with_the_systems_reason(tmp_path: Path) -> None:
+    folder = tmp_path / "t.jsonl"
+    folder.mkdir()
+    [problem] = write_traces(full_lines(GOLDEN)[:1], [folder])
+    assert (problem.code, problem.message) == (
+        "E419",
+        f"cannot write trace `{folder}`: Is a directory",
+    )
+
+
+def test_a_system_that_builds_with_an_error_leaves_the_scenario_unchecked(tmp_path: Path) -> None:
+    """A system directory holding a copy of its system (E231: two systems named `cell`):
+    the system built, but with an error, so the scenario is not checked against it."""
+    specs = HERE.parent / "specs" / "cell"
+    for folder in (tmp_path, tmp_path / "copy"):
+        folder.mkdir(exist_ok=True)
+        for spec in specs.glob("*.yaml"):
+            (folder / spec.name).write_bytes(spec.read_bytes())
+    (tmp_path / "scenarios").mkdir()
+    path = tmp_path / "scenarios" / "s.yaml"
+    path.write_text("scenario: s\ntitle: A scenario\nmax_cycles: 20\n")
+    checked = check(path)
+    assert checked.system is None and checked.scenario is None
+    [specs_said] = checked.diagnostics
+    assert [d.code for d in specs_said.errors] == ["E231"]

@@ -142,6 +142,11 @@ def test_a_run_longer_or_shorter_than_its_golden_and_a_golden_that_is_no_trace(
         None, "length", "2 cycles", f"{len(lines)} cycles"
     )
     assert first_difference(lines, list(lines)) is None
+    # a length that differs is said at the golden's line after the shorter one's last
+    [longer] = golden_differences(golden, [*lines, lines[-1]], "plan_ahead")
+    [shorter] = golden_differences(golden, lines[:-2], "plan_ahead")
+    assert (longer.code, longer.span.line) == ("E417", len(lines) + 1)
+    assert (shorter.code, shorter.span.line) == ("E417", len(lines) - 1)
     damaged = tmp_path / "g.jsonl.gz"
     damaged.write_bytes(b"\x1f\x8b\x08\x00" + b"\xff" * 20)
     with pytest.raises(SpecError) as caught:

@@ -67,6 +67,14 @@ GOOD = line(1, {"a": 1, "b": True}, co=co())
             "t:2: not a trace line (`removed` names modules.co.zz, which is not there)",
         ),
         ('{"cycle": 2, "removed": [["modules", "co", "rule"]]}', "t:2: module co has no `rule`"),
+        (
+            '{"cycle": 2, "removed": [["modules", "co"]]}',
+            "t:2: modules differ from the first line's (co)",
+        ),
+        (
+            '{"cycle": 2, "changed": {"modules": {"zz": {}}}}',
+            "t:2: modules differ from the first line's (zz)",
+        ),
         ('{"cycle": 2, "removed": ["a"]}', 't:2: not a trace line (`removed` holds "a", not a'),
         ('{"cycle": 2, "changed": 5}', "t:2: not a trace line (`changed` is not an object"),
         ('{"cycle": 1, "changed": {}}', "t:2: cycle 1 after cycle 1"),
@@ -133,6 +141,8 @@ def test_a_trace_given_as_text_is_named_trace_in_its_errors() -> None:
         traces.parse("\n")
     with pytest.raises(traces.TraceError, match=r"^<trace>:1: not a trace line"):
         traces.parse("[]")
+    with pytest.raises(traces.TraceError, match=r"^<trace>:2: not a trace line"):
+        traces.parse_lines([GOOD, "[]"])  # lines given without a name, as parse gives them
 
 
 @pytest.mark.parametrize(
@@ -425,3 +435,64 @@ def test_a_line_holding_two_records_is_one_located_error() -> None:
     two = line(2, {"a": 1, "b": True}, co=co())
     with pytest.raises(traces.TraceError, match=r"^t:2: not a trace line: Extra data"):
         traces.parse(GOOD + "\n" + two + ", " + two + "\n", "t")
+
+
+TIMING_FIGURES = {
+    "period_ms": 50.0,
+    "wakeups": 3,
+    "period_error_mean_us": 12.5,
+    "period_error_max_us": 40.0,
+    "lateness_p99_us": 30.0,
+    "lateness_max_us": 31.5,
+    "lateness_warnings": 0,
+}
+
+
+@pytest.mark.parametrize(
+    "figures",
+    [
+        {},
+        {"period_ms": 50.0},  # a figure the views show is missing
+        TIMING_FIGURES | {"extra": 1},
+        TIMING_FIGURES | {"wakeups": "3"},
+        TIMING_FIGURES | {"lateness_warnings": True},
+        TIMING_FIGURES | {"lateness_p99_us": float("nan")},  # json writes NaN, and reads it
+        TIMING_FIGURES | {"period_ms": float("inf")},
+    ],
+)
+def test_a_timing_record_holds_every_figure_as_a_finite_number(figures: dict[str, object]) -> None:
+    """A paced run's timing record is read whole (its figures reach the trace view's title
+    and its page's JSON, which a NaN would make unreadable): anything else is one located
+    error naming the figures, never a KeyError or a page that does not load."""
+    timing = json.dumps({"cycle": 1, "periodicity": TIMING_FIGURES})
+    assert traces.parse(GOOD + "\n" + timing, "t").periodicity == TIMING_FIGURES
+    with pytest.raises(traces.TraceError) as caught:
+        traces.parse(GOOD + "\n" + json.dumps({"cycle": 1, "periodicity": figures}), "t")
+    assert str(caught.value) == (
+        "t:2: not a trace line (a `periodicity` record's figures are lateness_max_us, "
+        "lateness_p99_us, lateness_warnings, period_error_max_us, period_error_mean_us, "
+        "period_ms, wakeups, each a finite number)"
+    )
+
+
+def test_a_cause_is_kept_on_the_lines_that_have_one_and_empty_on_the_others() -> None:
+    """`cause` is written only where a module with reasons is in ERROR passed up from a
+    subordinate: its column is that text there and '' on every other line."""
+    failed = co(status="ERROR", reason="LOST", cause="sub: TIMED_OUT")
+    lines = [
+        line(1, {}, co=co(reason="NONE")),
+        line(2, {}, co=failed),
+        line(3, {}, co=co(reason="NONE")),
+    ]
+    trace = traces.parse("\n".join(lines), "t")
+    assert trace.columns["co"]["cause"] == ["", "sub: TIMED_OUT", ""]
+    assert trace.columns["co"]["reason"] == ["NONE", "LOST", "NONE"]
+
+
+def test_a_change_line_may_remove_what_the_reader_does_not_read() -> None:
+    """`removed` paths outside `modules` and `world` (the `overrides` a run latched and
+    released) are the writer's business: the line is read, its modules as before."""
+    for path in (["overrides"], ["overrides", "a"]):
+        text = GOOD + "\n" + json.dumps({"cycle": 2, "removed": [path]})
+        trace = traces.parse(text, "t")
+        assert trace.cycles == [1, 2] and trace.columns["co"]["state"] == ["NOP", "NOP"]

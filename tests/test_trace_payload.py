@@ -11,6 +11,8 @@ from __future__ import annotations
 import json
 from typing import Any
 
+import pytest
+
 from rcsgen.tools.traces import view
 from rcsgen.tools.traces.read import Lane, Trace
 
@@ -191,3 +193,13 @@ def test_the_page_is_titled_with_the_trace_its_length_system_and_timing() -> Non
         in paced
     )
     assert json.loads(view.payload(t, [Lane("a")], None, None))["periodicity"] == FIGURES
+
+
+def test_the_payload_is_strict_json_and_refuses_a_figure_that_is_not_finite() -> None:
+    """The page reads its data with JSON.parse, which has no NaN: a figure that is not a
+    finite number (the reader refuses one; a trace made by hand may hold it) is refused here
+    rather than written as `NaN`."""
+    t = trace()
+    t.periodicity = FIGURES | {"lateness_p99_us": float("nan")}
+    with pytest.raises(ValueError, match="Out of range float values are not JSON compliant"):
+        view.payload(t, [Lane("a")], None, None)

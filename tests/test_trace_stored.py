@@ -95,6 +95,9 @@ def test_lines_that_are_not_records_of_modules_pass_as_they_are() -> None:
     assert stored.is_delta({"cycle": 2}) and stored.is_delta({"cycle": 2, "removed": []})
     assert not stored.is_delta({"cycle": 2, "modules": {}})
     assert not stored.is_delta({"cycle": 2, "timing": {}})
+    # what is no object (a blank line, a list) is left as it is, for the reader to refuse
+    full = ['{"cycle": 1, "modules": {"m": {"x": 1}}}', "", "  ", "[1, 2]", '{"cycle": 2}']
+    assert list(stored.expanded(full)) == [*full[:4], '{"cycle":2,"modules":{"m":{"x":1}}}']
 
 
 scalars = st.one_of(

@@ -46,7 +46,6 @@ from .model import (
 )
 
 DEFAULT_MAX_CYCLES = 1000
-_TYPE_WORDS = {"bool": "a bool (true or false)", "int": "an int", "float": "a float"}
 
 
 def check_scenario(
@@ -791,9 +790,7 @@ class _Checker:
         covered = {
             (a.operator, a.task) for a in script.answers if a.task is not None and a.client is None
         }
-        for operator in self.operators.values():
-            if default.operator not in (None, operator.name):
-                continue
+        for operator in self.operators.values():  # (a default names no operator: the schema)
             for task in operator.commands:
                 if not task.results or {(None, task.name), (operator.name, task.name)} & covered:
                     continue

@@ -29,6 +29,21 @@ from .model import FREEZE, REPLUG, THAW, UNPLUG, Scenario, SoftPlc
 START_DEADLINE = 120.0  # seconds a soft PLC may take to listen (imports and a plant on 2 cores)
 
 
+def served_at(protocol: str, url: str, port: int) -> str:
+    """Where a device's soft PLC serves it (`RCSGEN_IO_<DEVICE>`): loopback at `port`, an
+    OPC UA device's endpoint path kept (`opc.tcp://host:port/PATH`)."""
+    if protocol != "opcua":
+        return f"127.0.0.1:{port}"
+    path = url.split("/", 3)[3] if url.count("/") >= 3 else ""
+    return f"opc.tcp://127.0.0.1:{port}/{path}"
+
+
+def holds(value: Any, want: Any, scale: float) -> bool:
+    """Whether an output read back from a device is `want` to its resolution: within half a
+    step of its scale (a register holds whole steps of it)."""
+    return abs(float(value) - float(want)) <= abs(scale) / 2
+
+
 class DeviceStartError(Exception):
     """A soft PLC that did not start: which, and what it said."""
 
@@ -86,16 +101,18 @@ class Bench:
             device = layout.IO_DEVICES[name]
             variable = f"RCSGEN_IO_{name.upper()}"
             self.saved.setdefault(variable, os.environ.get(variable))
-            path = device.url.split("/", 3)[3] if device.url.count("/") >= 3 else ""
-            os.environ[variable] = (
-                f"opc.tcp://127.0.0.1:{plc.ports[name]}/{path}"
-                if device.protocol == "opcua"
-                else f"127.0.0.1:{plc.ports[name]}"
-            )
+            os.environ[variable] = served_at(device.protocol, device.url, plc.ports[name])
 
     def _spawn(self, plc: Plc, ports: list[int]) -> None:
         ready = self.scratch / f"{plc.names[0]}.port"
         ready.unlink(missing_ok=True)
+        command = self.command(plc, ports, ready)
+        with (self.scratch / f"{plc.names[0]}.log").open("ab") as log:
+            plc.popen = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
+
+    def command(self, plc: Plc, ports: list[int], ready: Path) -> list[str]:
+        """The soft PLC's command line: its devices on `ports` (0: any free one), the file it
+        writes them to once listening, its control directory, its plant, the settings."""
         command = [sys.executable, "-m", "rcsgen.tools.softplc", "--io", str(self.package_dir)]
         for name, port in zip(plc.names, ports, strict=True):
             command += ["--device", name, "--port", str(port)]
@@ -104,8 +121,7 @@ class Bench:
             command += ["--plant", str(plc.package), "--hooks", str(plc.plant)]
         for key, value in self.scenario.settings.items():
             command += ["--set", f"{key}={value}"]
-        with (self.scratch / f"{plc.names[0]}.log").open("ab") as log:
-            plc.popen = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
+        return command
 
     def _wait(self, plc: Plc) -> None:
         ready, popen = self.scratch / f"{plc.names[0]}.port", plc.popen
@@ -173,7 +189,7 @@ class Bench:
                 continue
             for point in points:
                 value, want = held[point.field], safe[point.field]
-                if abs(float(value) - float(want)) > abs(point.scale) / 2:
+                if not holds(value, want, point.scale):
                     missing.append(
                         f"device `{name}` holds `{point.field}` {value!r}, not its safe {want!r}"
                     )

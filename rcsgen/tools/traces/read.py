@@ -18,6 +18,7 @@ from __future__ import annotations
 import gzip
 import io
 import json
+import math
 import zlib
 from collections.abc import Generator, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -43,6 +44,14 @@ SPARSE = "cause"
 # of `ctl status` (contract.periodicity). Timing is never the same twice: comparisons with
 # a golden trace leave it out (scenario/run.py `first_difference`).
 TIMING = "periodicity"
+# Its figures (contract.periodicity's names, whatever the values), each a finite number: the
+# views write them into a page's JSON and its title.
+FIGURES = tuple(
+    sorted(
+        contract.periodicity(dict.fromkeys(contract.field_names(contract.PERIODICITY_FIELDS), 1))
+        or ()
+    )
+)
 
 
 def is_timing(line: str) -> bool:
@@ -370,7 +379,16 @@ def _timing(record: dict[str, Any], where: str, trace: Trace) -> dict[str, Any]:
             f"{where}: not a trace line (a `{TIMING}` record has only it and `cycle`, "
             "after the cycles)"
         )
+    if sorted(figures) != list(FIGURES) or not all(map(_finite_number, figures.values())):
+        raise TraceError(
+            f"{where}: not a trace line (a `{TIMING}` record's figures are "
+            f"{', '.join(FIGURES)}, each a finite number)"
+        )
     return figures
+
+
+def _finite_number(value: Any) -> bool:
+    return type(value) in (int, float) and math.isfinite(value)
 
 
 def _interruption(record: dict[str, Any], where: str) -> str:
