@@ -476,8 +476,6 @@ class Pattern:
         return self._hash
 
     def __eq__(self, other: object) -> bool:
-        if self is other:
-            return True
         if not isinstance(other, Pattern):
             return False
         return self._hash == other._hash and self.parts == other.parts
