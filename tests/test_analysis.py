@@ -964,9 +964,9 @@ def test_every_code_of_the_analysis_is_registered_with_its_meaning() -> None:
 def test_samples_cover_every_region_once() -> None:
     from fractions import Fraction
 
-    assert solver.samples(solver.INT, [Fraction(3), Fraction(4)]) == (3, 4, 2, 5)  # none between
-    assert solver.samples(solver.INT, [Fraction(5, 2)]) == (2, 3)
-    assert solver.samples(solver.FLOAT, [Fraction(0), Fraction(1)]) == (
+    assert solver.samples(solver.INT, [Fraction(3), Fraction(4)], False) == (3, 4, 2, 5)
+    assert solver.samples(solver.INT, [Fraction(5, 2)], False) == (2, 3)  # none between
+    assert solver.samples(solver.FLOAT, [Fraction(0), Fraction(1)], False) == (
         0,
         1,
         -1,

@@ -236,7 +236,7 @@ def merge_atoms(into: Guard, atoms: Guard) -> None:
         into.numeric.setdefault(key, (kind, set()))[1].update(constants)
 
 
-def samples(kind: Number, constants: Iterable[Fraction], held: bool = False) -> tuple[Any, ...]:
+def samples(kind: Number, constants: Iterable[Fraction], held: bool) -> tuple[Any, ...]:
     """One value per region the constants cut the number line into: the constants first.
 
     `held`: the values are a float variable's, so only values a float holds exactly. A
