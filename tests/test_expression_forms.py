@@ -111,12 +111,15 @@ def test_each_form_is_refused_by_name_by_the_resolver_word_for_word() -> None:
     """The same forms given to the resolver alone (no spec compiled): its one finding each,
     with its code, message, hint and column."""
     scope = Scope(world={"level": FLOAT}, world_access=frozenset({"level"}))
-    for guard, col, code, message, hint in FORMS:
-        diags = Diagnostics()
-        assert compile_expr(guard, Span("x.yaml", 1, 1), scope, diags) is None, guard
-        assert [(d.code, d.span.col - 1, d.message, d.hint) for d in diags.items] == [
-            (code, col, message, hint)
-        ], guard
+    for guard, *want in FORMS:
+        assert refused(guard, scope) == [tuple(want)], guard
+
+
+def refused(guard: str, scope: Scope) -> list[tuple[int, str, str, str]]:
+    """What the resolver alone says of `guard`: (column, 0-based, code, message, hint)."""
+    diags = Diagnostics()
+    assert compile_expr(guard, Span("x.yaml", 1, 1), scope, diags) is None, guard
+    return [(d.span.col - 1, d.code, d.message, d.hint) for d in diags.items]
 
 
 # One guard, `world.level + nope > 1`, written in each form YAML has for a scalar: an error
@@ -225,12 +228,8 @@ def test_each_name_the_resolver_cannot_find_is_said_with_the_names_it_knows() ->
         subordinates={"pump": frozenset({"INIT", "FILL"})},
         sub_reasons={"pump": ("JAMMED",)},
     )
-    for guard, col, code, message, hint in NAMES:
-        diags = Diagnostics()
-        assert compile_expr(guard, Span("x.yaml", 1, 1), scope, diags) is None, guard
-        assert [(d.code, d.span.col - 1, d.message, d.hint) for d in diags.items] == [
-            (code, col, message, hint)
-        ], guard
+    for guard, *want in NAMES:
+        assert refused(guard, scope) == [tuple(want)], guard
 
 
 def test_an_expression_over_several_lines_reads_as_one_line() -> None:
