@@ -614,7 +614,7 @@ def test_fold_gives_the_value_of_what_reads_only_constants(source: str, want: ob
     assert value == want and type(value) is type(want), (source, value)
 
 
-def test_fold_takes_only_constants_for_known_not_a_field_of_the_same_name() -> None:
+def test_fold_reads_a_const_ref_from_the_constants_not_a_field_of_its_name() -> None:
     from rcsgen.compiler.expressions import fold
 
     for kind in (RefKind.WORLD, RefKind.PARAM, RefKind.LOCAL):
