@@ -1662,3 +1662,26 @@ def test_abs_min_max_and_a_minus_sign_are_decided_as_python_computes_them(spec) 
             "rule 2 of GO S2 never fires: its guard can never hold",
         ),
     ]
+
+
+def test_a_scaled_variable_and_a_min_of_constants_keep_their_exact_bounds(spec) -> None:
+    """`2.0 * world.x > 3.0` is `world.x > 1.5` (the bound divided by the coefficient), and
+    `min(2.0, 3.0)` is 2.0: the two rules overlap between them, and only there."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - when: 2.0 * world.x > 3.0
+                do: [report: DONE]
+              - when: world.x < min(2.0, 3.0)
+                do: [report: ERROR]
+        """
+    )
+    assert found(diags) == [
+        (
+            at("        - |when: world.x < min"),
+            "E501",
+            "rules 1 and 2 of GO S0 can both fire: both hold when world.x=1.75",
+        )
+    ]
