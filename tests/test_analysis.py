@@ -964,15 +964,65 @@ def test_every_code_of_the_analysis_is_registered_with_its_meaning() -> None:
 def test_samples_cover_every_region_once() -> None:
     from fractions import Fraction
 
-    assert solver.samples(solver.INT, [Fraction(3), Fraction(4)]) == (3, 4, 2, 5)  # none between
-    assert solver.samples(solver.INT, [Fraction(5, 2)]) == (2, 3)
-    assert solver.samples(solver.FLOAT, [Fraction(0), Fraction(1)]) == (
+    assert solver.samples(solver.INT, [Fraction(3), Fraction(4)], False) == (3, 4, 2, 5)
+    assert solver.samples(solver.INT, [Fraction(5, 2)], False) == (2, 3)  # none between
+    assert solver.samples(solver.INT, [Fraction(1), Fraction(2), Fraction(10)], False) == (
+        (1, 2, 10, 0, 3, 11)
+    )
+    assert solver.samples(solver.FLOAT, [Fraction(0), Fraction(1)], False) == (
         0,
         1,
         -1,
         Fraction(1, 2),
         2,
     )
+    assert solver.samples(solver.FLOAT, [Fraction(0), Fraction(1), Fraction(3)], False) == (
+        (0, 1, 3, -1, Fraction(1, 2), 2, 4)
+    )
+
+
+def test_a_float_variable_samples_only_values_a_float_holds() -> None:
+    """`3 * x <= 1` cuts at 1/3, which no float holds: a form's values keep it, a float
+    variable's drop it, and each middle becomes the float nearest it inside its region."""
+    from fractions import Fraction
+
+    third = Fraction(1, 3)
+    assert solver.samples(solver.FLOAT, [Fraction(0), third], False) == (
+        0,
+        third,
+        -1,
+        Fraction(1, 6),
+        Fraction(4, 3),
+    )
+    assert solver.samples(solver.FLOAT, [Fraction(0), third], True) == (
+        0,
+        -1,
+        Fraction(1 / 6),
+        Fraction(4 / 3),
+    )
+    huge = Fraction(10**400)  # beyond every float: neither it nor the values past it held
+    assert solver.samples(solver.FLOAT, [Fraction(0), huge], True) == (
+        0,
+        -1,
+        huge / 2,
+        huge + 1,
+    )
+    # between two neighbouring floats no float is strictly inside: the exact middle stays
+    one, next_up, after = (Fraction(1 + n * 2.0**-52) for n in (0, 1, 2))
+    assert solver.samples(solver.FLOAT, [one, next_up], True)[3] == (one + next_up) / 2
+    assert solver.samples(solver.FLOAT, [next_up, after], True)[3] == (next_up + after) / 2
+
+
+def test_vectors_are_independent_unless_one_is_a_combination_of_the_others() -> None:
+    """Exact elimination: a row that another's multiple cancels leaves nothing (dependent)."""
+    from fractions import Fraction as F
+
+    x, y, z = ("world", "x"), ("world", "y"), ("world", "z")
+    assert solver.independent([{x: F(1), y: F(-1)}, {x: F(1), y: F(-2)}, {y: F(1), z: F(3)}])
+    assert not solver.independent([{x: F(1), y: F(-1)}, {x: F(1), y: F(-2)}, {y: F(3)}])
+    assert solver.independent([{x: F(1), y: F(1)}, {x: F(1)}])  # leaves -y
+    assert solver.independent([{x: F(2), y: F(4)}, {x: F(1), y: F(2)}]) is False  # a half
+    assert solver.independent([{x: F(3)}, {}]) is False
 
 
 def _parity(flags: int) -> solver.Guard:
@@ -1510,3 +1560,128 @@ def test_a_guard_repeated_in_a_controller_is_built_once_its_constants_as_written
     zero, minus_zero = (X.Compare(BOOL, x, (">",), (X.Const(FLOAT, v),)) for v in (0.0, -0.0))
     assert zero == minus_zero  # (the trees compare by value: the key must not)
     assert analysis._exact(zero) != analysis._exact(minus_zero)
+
+
+def test_a_constant_on_the_left_is_compared_as_written_and_a_for_rule_waits_its_time(
+    spec,
+) -> None:
+    """`2.0 < world.x` is `world.x > 2.0`: each comparison with its sides swapped (the
+    analysis puts the variable first) decides as written; and a `for:` rule's counter, like
+    `after:`'s time, is read once its time has come, so S2 does not wait."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - when: 2.0 < world.x
+                do: [report: DONE]
+              - when: 1.0 >= world.x
+                do: [report: ERROR]
+              - when: 2.0 == world.x
+                next: S1
+            S1:
+              - when: 1.0 > world.x
+                do: [report: DONE]
+              - when: 1.0 <= world.x
+                do: [report: ERROR]
+              - when: 3.0 != world.x
+                next: S2
+            S2:
+              - when: world.hot
+                for: 3 cycles
+                do: [report: DONE]
+              - when: not world.hot
+                do: [report: ERROR]
+        """
+    )
+    third = at("        - |when: 3.0 != world.x")
+    assert found(diags) == [
+        (at("      |S0:"), "W503", "GO S0 waits when world.x=1.5: no rule fires then"),
+        (third, "E501", "rules 1 and 3 of GO S1 can both fire: both hold when world.x=0.0"),
+        (third, "E501", "rules 2 and 3 of GO S1 can both fire: both hold when world.x=1.0"),
+        (
+            third,
+            "W512",
+            "rule 3 of GO S1 never fires: whenever its guard holds, an earlier rule (1, 2) "
+            "fires first",
+        ),
+    ]
+
+
+def test_abs_min_max_and_a_minus_sign_are_decided_as_python_computes_them(spec) -> None:
+    """`abs(x)` is `x if x >= 0 else -x`, `min`/`max` of three the first two then the third,
+    `-x > 1.0` is `x < -1.0`: each written out, they decide exactly (E501's witness, S1
+    complete, S2's first two rules impossible since a min with 1.0 is at most 1.0)."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - when: abs(world.x) > 1.0
+                do: [report: DONE]
+              - when: world.x < -2.0
+                do: [report: ERROR]
+              - when: abs(world.x) <= 1.0
+                next: S1
+            S1:
+              - when: -world.x > 1.0
+                do: [report: DONE]
+              - when: world.x >= -1.0
+                next: S2
+            S2:
+              - when: min(world.x, world.y, 1.0) > 2.0
+                do: [report: DONE]
+              - when: max(world.x, world.y, 1.0) < 0.0
+                do: [report: ERROR]
+              - when: world.x > 0.0
+                next: S0
+        """
+    )
+    second = at("        - |when: world.x < -2.0")
+    assert found(diags) == [
+        (second, "E501", "rules 1 and 2 of GO S0 can both fire: both hold when world.x=-3.0"),
+        (
+            second,
+            "W512",
+            "rule 2 of GO S0 never fires: whenever its guard holds, an earlier rule (1) fires "
+            "first",
+        ),
+        (
+            at("      |S2:"),
+            "W503",
+            "GO S2 waits when (world.x - world.y)=0.0, world.x=0.0: no rule fires then",
+        ),
+        (
+            at("        - |when: min(world.x"),
+            "W512",
+            "rule 1 of GO S2 never fires: its guard can never hold",
+        ),
+        (
+            at("        - |when: max(world.x"),
+            "W512",
+            "rule 2 of GO S2 never fires: its guard can never hold",
+        ),
+    ]
+
+
+def test_a_scaled_variable_and_a_min_of_constants_keep_their_exact_bounds(spec) -> None:
+    """`2.0 * world.x > 3.0` is `world.x > 1.5` (the bound divided by the coefficient), and
+    `min(2.0, 3.0)` is 2.0: the two rules overlap between them, and only there."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - when: 2.0 * world.x > 3.0
+                do: [report: DONE]
+              - when: world.x < min(2.0, 3.0)
+                do: [report: ERROR]
+        """
+    )
+    assert found(diags) == [
+        (
+            at("        - |when: world.x < min"),
+            "E501",
+            "rules 1 and 2 of GO S0 can both fire: both hold when world.x=1.75",
+        )
+    ]

@@ -632,7 +632,7 @@ def test_fold_gives_the_value_of_what_reads_only_constants(source: str, want: ob
     assert value == want and type(value) is type(want), (source, value)
 
 
-def test_fold_takes_only_constants_for_known_not_a_field_of_the_same_name() -> None:
+def test_fold_reads_a_const_ref_from_the_constants_not_a_field_of_its_name() -> None:
     from rcsgen.compiler.expressions import fold
 
     for kind in (RefKind.WORLD, RefKind.PARAM, RefKind.LOCAL):
@@ -696,3 +696,34 @@ def test_predicates_given_to_the_printer_are_printed_where_they_are_called() -> 
     assert to_python_conjunct(
         Call(BOOL, CallKind.PREDICATE, "too_much"), naming.attribute, bodies
     ) == ("(self.world_loose_coal > 4.0)")
+
+
+# ---------------------------------------------------------------- the printer's parentheses
+
+
+def test_printer_keeps_only_the_parentheses_python_needs() -> None:
+    """Each operator's precedence, from `if` (lowest) to a unary minus: parentheses that
+    change nothing are dropped, those that do are kept, so the generated code reads as a
+    person would write it and means what the spec said."""
+    printed = {
+        "(world.wi + li) < (pi * 2)": "world.wi + li < pi * 2",
+        "(world.wi - li) >= (pi / 2)": "world.wi - li >= pi / 2",
+        "((world.wb and lb) or pb)": "world.wb and lb or pb",
+        "not (lb and pb)": "not (lb and pb)",
+        "not (li < pi)": "not li < pi",
+        "(not lb) and (li < pi)": "not lb and li < pi",
+        "(li if lb else pi) + 1 > 0": "(li if lb else pi) + 1 > 0",
+        "li if (lb if pb else lb) else pi": "li if (lb if pb else lb) else pi",
+        "li + (pi * 2) > li - (pi * 2)": "li + pi * 2 > li - pi * 2",
+        "(li * (-pi)) + (li // (-pi)) + (li % (-pi)) > li / (-pi)": (
+            "li * -pi + li // -pi + li % -pi > li / -pi"
+        ),
+        "(-li) * pi > -(li * pi)": "-li * pi > -(li * pi)",
+        "abs((li - 2)) > 0": "abs(li - 2) > 0",
+        "(lb == pb) != (li <= pi)": "(lb == pb) != (li <= pi)",
+        "(+li) > 0": "+li > 0",
+    }
+    for source, want in printed.items():
+        tree = compile_expr(source, SPAN, scope(), Diagnostics())
+        assert tree is not None, source
+        assert to_python(tree, spec_name) == want, source

@@ -8,8 +8,11 @@ from pathlib import Path
 
 from test_check_messages import SYSTEM, TANK
 
-from rcsgen.compiler.diagnostics import Diagnostic
+from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
+from rcsgen.compiler.expressions import Scope, compile_expr
+from rcsgen.compiler.expressions.resolve import expression_text
 from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.types import FLOAT
 
 HINT = (
     "expressions may use literals, and/or/not, comparisons, arithmetic, `a if c else b`, "
@@ -75,6 +78,9 @@ FORMS = [
     ("world.__class__ == 1", 0, "E102", "dunder attribute `__class__` is not allowed", ""),
     ("__debug__ == 1", 0, "E102", "dunder name `__debug__` is not allowed", ""),
     ("abs(1, 2) > 1", 0, "E107", "wrong number of arguments to `abs`", ""),
+    ("(x for x in y) == 1", 0, "E102", "comprehensions are not allowed in a spec expression", HINT),
+    ("(lambda: 1) == 1", 1, "E102", "lambdas are not allowed in a spec expression", HINT),
+    ("(yield from y) == 1", 1, "E102", "`yield from` is not allowed in a spec expression", HINT),
 ]
 
 
@@ -99,6 +105,21 @@ def test_each_form_is_refused_by_name_at_its_place(tmp_path: Path, monkeypatch) 
         (code, f"tank.yaml:{line[guard]}:{first + col}", message, hint)
         for guard, col, code, message, hint in FORMS
     ]
+
+
+def test_each_form_is_refused_by_name_by_the_resolver_word_for_word() -> None:
+    """The same forms given to the resolver alone (no spec compiled): its one finding each,
+    with its code, message, hint and column."""
+    scope = Scope(world={"level": FLOAT}, world_access=frozenset({"level"}))
+    for guard, *want in FORMS:
+        assert refused(guard, scope) == [tuple(want)], guard
+
+
+def refused(guard: str, scope: Scope) -> list[tuple[int, str, str, str]]:
+    """What the resolver alone says of `guard`: (column, 0-based, code, message, hint)."""
+    diags = Diagnostics()
+    assert compile_expr(guard, Span("x.yaml", 1, 1), scope, diags) is None, guard
+    return [(d.span.col - 1, d.code, d.message, d.hint) for d in diags.items]
 
 
 # One guard, `world.level + nope > 1`, written in each form YAML has for a scalar: an error
@@ -160,3 +181,60 @@ def test_an_expression_error_of_a_quoted_scalar_is_located_past_the_quote(
         ("E101", line + 5, 26),
         ("E107", line + 8, 13),
     ]
+
+
+# A name the resolver cannot find, with what `validate` says of it word for word: the close
+# name when there is one, else every name declared of that kind.
+NAMES = [
+    ("world.levle > 1", 0, "E104", "undeclared world field `levle`", "did you mean `level`?"),
+    (
+        "world.zzz > 1",
+        0,
+        "E104",
+        "undeclared world field `zzz`",
+        "declared world fields: `flow`, `level`",
+    ),
+    (
+        "world.flow > 1",
+        0,
+        "E105",
+        "world field `flow` is not in this controller's world.reads or world.writes",
+        "add `flow` to `world: reads:`",
+    ),
+    ("pump.result > 1", 0, "E108", "`pump.result` needs a name: `.result.<name>`", ""),
+    ("pump.reason == 3", 15, "E107", "`pump.reason` compares only with a reason name", ""),
+    ("pump.reason == JAMMD", 15, "E260", "`pump` has no reason `JAMMD`", "did you mean `JAMMED`?"),
+    (
+        "pump.statsu == DONE",
+        0,
+        "E108",
+        "`pump.statsu`: a subordinate has only `status`, `command`, `reason` and `result.<name>`",
+        "did you mean `status`?",
+    ),
+    (
+        "pump.zzz == 1",
+        0,
+        "E108",
+        "`pump.zzz`: a subordinate has only `status`, `command`, `reason` and `result.<name>`",
+        "declared fields: `command`, `reason`, `result`, `status`",
+    ),
+]
+
+
+def test_each_name_the_resolver_cannot_find_is_said_with_the_names_it_knows() -> None:
+    scope = Scope(
+        world={"level": FLOAT, "flow": FLOAT},
+        world_access=frozenset({"level"}),
+        subordinates={"pump": frozenset({"INIT", "FILL"})},
+        sub_reasons={"pump": ("JAMMED",)},
+    )
+    for guard, *want in NAMES:
+        assert refused(guard, scope) == [tuple(want)], guard
+
+
+def test_an_expression_over_several_lines_reads_as_one_line() -> None:
+    """A line break of any kind (`\\n`, `\\r\\n`, a lone `\\r`) and the runs of blanks
+    around it are one space; a one-line expression is only stripped."""
+    assert expression_text("world.level\r> 1") == "world.level > 1"
+    assert expression_text(" world.level\r\n   > 1 ") == "world.level > 1"
+    assert expression_text("\n  world.level  > 1\n") == "world.level  > 1"

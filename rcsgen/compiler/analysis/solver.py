@@ -236,7 +236,7 @@ def merge_atoms(into: Guard, atoms: Guard) -> None:
         into.numeric.setdefault(key, (kind, set()))[1].update(constants)
 
 
-def samples(kind: Number, constants: Iterable[Fraction], held: bool = False) -> tuple[Any, ...]:
+def samples(kind: Number, constants: Iterable[Fraction], held: bool) -> tuple[Any, ...]:
     """One value per region the constants cut the number line into: the constants first.
 
     `held`: the values are a float variable's, so only values a float holds exactly. A
@@ -476,8 +476,6 @@ class Pattern:
         return self._hash
 
     def __eq__(self, other: object) -> bool:
-        if self is other:
-            return True
         if not isinstance(other, Pattern):
             return False
         return self._hash == other._hash and self.parts == other.parts

@@ -107,7 +107,6 @@ _NODE_WORDS = {
     ast.Tuple: "tuples are",
     ast.Set: "sets are",
     ast.Dict: "dictionaries are",
-    ast.Slice: "slices are",
 }
 
 
