@@ -45,6 +45,12 @@ def test_each_unmet_expectation_says_what_was_wanted_and_what_came() -> None:
         "expected the run to take at least 50 cycles; it took 42"
     ]
     assert verdicts([Expected("cycles", AT, low=10.0, high=42.0)], failed, {}) == []
+    assert verdicts([Expected("cycles", AT, high=1.0)], failed, {}) == [
+        "expected the run to take at most 1 cycle; it took 42"  # once "at most 1 cycles"
+    ]
+    assert verdicts([Expected("cycles", AT, low=1.0, high=2.0)], failed, {}) == [
+        "expected the run to take between 1 and 2 cycles; it took 42"
+    ]
     met_then_unmet = [Expected("cycles", AT, low=10.0), Expected("status", AT, "DONE")]
     assert verdicts(met_then_unmet, failed, {}) == [  # a met one does not end the list
         "expected `sup` to finish DONE; it finished ERROR (state S3) in cycle 42"

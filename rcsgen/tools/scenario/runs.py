@@ -19,7 +19,7 @@ from types import TracebackType
 from typing import Any
 
 from ...compiler.back_end.write import Plan
-from ...compiler.diagnostics import Diagnostic, Span, SpecError
+from ...compiler.diagnostics import Diagnostic, Span, SpecError, counted
 from ...compiler.frontend import display_path
 from ...compiler.ir import IRCall, IRController, IRLoadPlan, IRSystem
 from ...runtime.contract import HookError, HookOverrun
@@ -208,15 +208,17 @@ def unmet_expectations(
                 continue
             stop = scenario.stop_when_done
             if actual == "EXECUTING":
-                got = f"it was still executing after {result.cycles} cycles (max_cycles)"
+                got = f"it was still executing after {counted(result.cycles, 'cycle')} (max_cycles)"
             else:
                 got = f"it finished {actual} (state {final.get('state')}) in cycle {result.cycles}"
             message = f"expected `{stop}` to finish {expected.wanted()}; {got}"
         elif expected.what == "cycles":
             if expected.met(result.cycles):
                 continue
+            one = expected.value == 1 or (expected.low, expected.high) in ((1, None), (None, 1))
             message = (
-                f"expected the run to take {expected.wanted()} cycles; it took {result.cycles}"
+                f"expected the run to take {expected.wanted()} {'cycle' if one else 'cycles'}; "
+                f"it took {result.cycles}"
             )
         else:
             actual = final_value(expected.what, world, result.statuses)
