@@ -97,3 +97,15 @@ def test_a_bound_no_result_can_hold_is_e110_at_the_bound(tmp_path, new: str, wan
     value: an int beyond 64 bits, or too large for a float, is E110 (it raised OverflowError)."""
     found = errors(tmp_path, "ldr.yaml", POST, new)
     assert found == [("E110", want, "use a smaller number, or a float if the value is not a count")]
+
+
+def test_a_huge_bound_above_the_other_is_quoted_cut_in_e910(tmp_path) -> None:
+    """`min` of 400 digits above `max`: E110 for the bound and E910 for the order, each
+    quoting the number's first 27 digits (E910 printed all 400)."""
+    new = POST.replace("float", "int").replace("min: 0.0", f"min: {LONG}")
+    found = errors(tmp_path, "ldr.yaml", POST, new)
+    assert (
+        "E910",
+        f"{WHERE} has `min` {'9' * 27}... above its `max` 5000.0: no answer fits",
+        "swap them",
+    ) in found, found

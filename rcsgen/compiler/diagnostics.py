@@ -176,6 +176,13 @@ def _edit_distance(a: str, b: str) -> int:
     return previous[-1]
 
 
+def number_shown(value: object) -> str:
+    """A number as a message quotes it: whole up to 30 characters, else its first 27 and
+    `...` (an int of hundreds of digits is quoted, not printed out)."""
+    text = str(value)
+    return text if len(text) <= 30 else f"{text[:27]}..."
+
+
 def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     """A 'did you mean `X`?' hint for a misspelled name, or '' when nothing is close.
 

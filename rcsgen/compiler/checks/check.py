@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ...runtime.contract import BUILTIN_COMMANDS
 from .. import expressions as expr
-from ..diagnostics import Diagnostics, Span, Subject, known_names_hint, listed
+from ..diagnostics import Diagnostics, Span, Subject, known_names_hint, listed, number_shown
 from ..front_end import model
 from ..front_end.model import Command, ControllerSpec, Located, PlanVerb, Rule, SystemSpec
 from ..types import BOOL, FLOAT, INT, Enum, Str, Type, annotation_accepts, hook_words
@@ -586,7 +586,7 @@ def _check_numbers(
             try:
                 float(value)
             except OverflowError:
-                problem = f"integer {str(value)[:27]}... is too large for a float"
+                problem = f"integer {number_shown(value)} is too large for a float"
         if problem:
             diags.error(span, "E110", problem, expr.INT_RANGE_HINT)
 

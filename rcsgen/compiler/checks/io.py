@@ -28,7 +28,7 @@ from ...runtime.io_points import (
     Point,
     raw_range,
 )
-from ..diagnostics import Diagnostics, Span, known_names_hint
+from ..diagnostics import Diagnostics, Span, known_names_hint, number_shown
 from ..front_end.model import ControllerSpec, IoDevice, IoPoint, SystemSpec, Typed
 from ..types import Bool, Float, Int
 
@@ -250,12 +250,6 @@ def _number(value: float) -> float:
         return math.inf if value > 0 else -math.inf
 
 
-def _quoted(value: object) -> str:
-    """A number as the spec gives it, cut to 30 characters (as E110 cuts an int)."""
-    text = str(value)
-    return text if len(text) <= 30 else f"{text[:27]}..."
-
-
 def _register_problem(
     point: IoPoint,
     register_type: str,
@@ -267,7 +261,9 @@ def _register_problem(
     """Whether a register's options cannot carry the field (reported, E451)."""
     for option in (point.scale, point.offset):
         if option is not None and not math.isfinite(_number(option.value)):
-            diags.error(option.span, "E451", f"`{_quoted(option.value)}` is not a finite number")
+            diags.error(
+                option.span, "E451", f"`{number_shown(option.value)}` is not a finite number"
+            )
             return True
     if scale == 0 and point.scale is not None:
         diags.error(
@@ -481,7 +477,7 @@ def _timing(
     for item, value in ((device.poll_period, poll), (device.timeout, timeout)):
         if item is not None and not math.isfinite(value):
             diags.error(
-                item.span, "E457", f"`{_quoted(item.value)}` is not a finite number of seconds"
+                item.span, "E457", f"`{number_shown(item.value)}` is not a finite number of seconds"
             )
             return poll, timeout
     if timeout <= poll:

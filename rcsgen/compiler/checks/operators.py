@@ -15,7 +15,7 @@ from __future__ import annotations
 from string import Formatter
 
 from ...runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
-from ..diagnostics import Diagnostics, known_names_hint
+from ..diagnostics import Diagnostics, known_names_hint, number_shown
 from ..front_end.model import (
     Command,
     ControllerSpec,
@@ -317,7 +317,8 @@ def _check_range(module: str, command: Command, result: Typed, diags: Diagnostic
             diags.error(
                 item.span,
                 "E910",
-                f"{where} is an int, but its bound {item.value} is not a whole number",
+                f"{where} is an int, but its bound {number_shown(item.value)} is not a whole "
+                "number",
                 "give an int result whole bounds",
             )
             return
@@ -326,6 +327,7 @@ def _check_range(module: str, command: Command, result: Typed, diags: Diagnostic
         diags.error(
             low.span,
             "E910",
-            f"{where} has `min` {low.value} above its `max` {high.value}: no answer fits",
+            f"{where} has `min` {number_shown(low.value)} above its `max` "
+            f"{number_shown(high.value)}: no answer fits",
             "swap them",
         )

@@ -13,6 +13,7 @@ from enum import StrEnum
 from typing import Any
 
 from ...runtime.contract import text_problem
+from ..diagnostics import number_shown
 from ..types import BOOL, INT, Enum, Str, Type
 
 
@@ -59,8 +60,9 @@ def int_range_problem(value: object) -> str:
     """'' when `value` is not an int beyond int64, else the message of E110."""
     if isinstance(value, bool) or not isinstance(value, int) or INT_MIN <= value <= INT_MAX:
         return ""
-    shown = str(value) if len(str(value)) <= 30 else f"{str(value)[:27]}..."
-    return f"integer {shown} is out of range: an int is 64-bit ({INT_MIN} to {INT_MAX})"
+    return (
+        f"integer {number_shown(value)} is out of range: an int is 64-bit ({INT_MIN} to {INT_MAX})"
+    )
 
 
 INT_RANGE_HINT = "use a smaller number, or a float if the value is not a count"
