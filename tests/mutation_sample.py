@@ -664,6 +664,32 @@ def _words(text: str) -> set[str]:
     return found | {w[:-1] for w in found if w.endswith("s") and len(w) > 3}
 
 
+def _run_bounded(cmd: list[str], tree: Path) -> subprocess.CompletedProcess[str] | None:
+    """pytest in a session of its own, at most TIMEOUT seconds (None: it took longer). Past
+    it, the whole session is killed (a system a test launched too, not pytest alone) and
+    the segments the suite names after that pytest's pid are removed (their fixtures never
+    ran): a timeout leaves no process and nothing in /dev/shm."""
+    with subprocess.Popen(
+        cmd,
+        cwd=tree,
+        env=_env(tree),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    ) as proc:
+        try:
+            out, err = proc.communicate(timeout=TIMEOUT)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+            shm = Path("/dev/shm")
+            for left in shm.glob(f"rcsgen_*_{proc.pid}_*") if shm.is_dir() else ():
+                left.unlink(missing_ok=True)
+            return None
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+
+
 def attempt(
     tree: Path, m: Mutant, key: str, nodeids: list[str], n: int, budgeted: int = 0
 ) -> Result:
@@ -694,17 +720,15 @@ def attempt(
             "addopts=",
             *nodeids,
         ]
-        try:
-            done = subprocess.run(
-                cmd, cwd=tree, env=_env(tree), capture_output=True, text=True, timeout=TIMEOUT
-            )
+        done = _run_bounded(cmd, tree)
+        if done is None:
+            code, detail = -1, f"timeout after {TIMEOUT:.0f} s"
+        else:
             code = done.returncode
             lines = done.stdout.strip().splitlines()
             detail = lines[-1] if lines else ""
             if code == 4 and "while loading conftest" in done.stdout + done.stderr:
                 code, detail = 2, "the mutant breaks the import of the package"
-        except subprocess.TimeoutExpired:
-            code, detail = -1, f"timeout after {TIMEOUT:.0f} s"
     finally:
         target.write_bytes(original)
         os.utime(target, ns=(stat.st_atime_ns, stat.st_mtime_ns))

@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 from types import ModuleType
 
@@ -578,3 +579,39 @@ def test_a_first_test_over_the_budget_alone_runs_after_the_quick_tests_that_fit(
         "tests/test_a.py::one",
         "tests/test_b.py::two",
     ]
+
+
+def test_a_mutant_run_past_its_time_leaves_no_process_and_no_segment(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A mutant that makes a test hang (a loop, a launched system that never stops): past
+    TIMEOUT the whole session is killed - the system the test started too, not pytest
+    alone - and the segment it named after pytest's pid is removed, as its fixture would
+    have; the mutant counts as killed by the timeout, and the source is put back."""
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "mod.py").write_text("WAIT = 1\n")
+    (tmp_path / "tests").mkdir()
+    marker = tmp_path / "child.pid"
+    (tmp_path / "tests" / "test_hang.py").write_text(
+        "import os, subprocess, sys, time\n"
+        "from pkg import mod\n"
+        "def test_hangs():\n"
+        f"    open(f'/dev/shm/rcsgen_mut_{{os.getpid()}}_1', 'w').close()\n"
+        "    child = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(60)'])\n"
+        f"    open({str(marker)!r}, 'w').write(str(child.pid))\n"
+        "    time.sleep(60 * mod.WAIT)\n"
+    )
+    monkeypatch.setattr(mutation_sample, "TIMEOUT", 4.0)
+    mutant = mutation_sample.Mutant("pkg/mod.py", 1, 1, "number", "1", "2", (1, 7), (1, 8))
+    result = mutation_sample.attempt(
+        tmp_path, mutant, "pkg/mod.py:1:1->2", ["tests/test_hang.py::test_hangs"], 0
+    )
+    assert (result.outcome, result.detail) == ("killed", "timeout after 4 s")
+    assert (tmp_path / "pkg" / "mod.py").read_text() == "WAIT = 1\n"
+    child = int(marker.read_text())
+    for _ in range(100):  # reaped by init once killed: gone within a moment
+        if not Path(f"/proc/{child}").exists():
+            break
+        time.sleep(0.05)
+    assert not Path(f"/proc/{child}").exists(), "the test's child survived the timeout"
+    assert not list(Path("/dev/shm").glob("rcsgen_mut_*")), "the hung test's segment was left"
