@@ -9,12 +9,12 @@ import json
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 from types import ModuleType
 
 import mutation_sample
 import pytest
+from conftest import wait_for
 from mutation_runtime import forget_generated_packages, formatted, runtime_mutant, sync_generated
 from mutation_summary import main as summary
 from mutation_summary import read_equivalent
@@ -609,9 +609,6 @@ def test_a_mutant_run_past_its_time_leaves_no_process_and_no_segment(
     assert (result.outcome, result.detail) == ("killed", "timeout after 4 s")
     assert (tmp_path / "pkg" / "mod.py").read_text() == "WAIT = 1\n"
     child = int(marker.read_text())
-    for _ in range(100):  # reaped by init once killed: gone within a moment
-        if not Path(f"/proc/{child}").exists():
-            break
-        time.sleep(0.05)
-    assert not Path(f"/proc/{child}").exists(), "the test's child survived the timeout"
+    # reaped by init once killed: gone within a moment
+    wait_for(lambda: not Path(f"/proc/{child}").exists(), "the test's child gone", deadline=5)
     assert not list(Path("/dev/shm").glob("rcsgen_mut_*")), "the hung test's segment was left"

@@ -174,8 +174,7 @@ class OpcUaBank:
 
         server = self.server
         await server.init()
-        path = self.device.url.split("/", 3)[3] if self.device.url.count("/") >= 3 else ""
-        server.set_endpoint(f"opc.tcp://{self.host}:{self.port}/{path}")
+        server.set_endpoint(f"opc.tcp://{self.host}:{self.port}/{endpoint_path(self.device.url)}")
         server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
         kinds = {"bool": ua.VariantType.Boolean, "int": ua.VariantType.Int64}
         zero = {"bool": False, "int": 0}
@@ -213,6 +212,12 @@ class OpcUaBank:
 
     async def stop(self) -> None:
         await self.server.stop()
+
+
+def endpoint_path(url: str) -> str:
+    """An OPC UA endpoint URL's path (`opc.tcp://host:port/PATH` -> `PATH`; '' for none):
+    where the PLC serves the device, on whatever host and port."""
+    return url.split("/", 3)[3] if url.count("/") >= 3 else ""
 
 
 def _bank(device: Any, host: str, port: int) -> ModbusBank | OpcUaBank:

@@ -24,6 +24,7 @@ from types import ModuleType
 from typing import Any
 
 from ..harness import write_package
+from ..softplc import endpoint_path
 from .model import FREEZE, REPLUG, THAW, UNPLUG, Scenario, SoftPlc
 
 START_DEADLINE = 120.0  # seconds a soft PLC may take to listen (imports and a plant on 2 cores)
@@ -34,8 +35,7 @@ def served_at(protocol: str, url: str, port: int) -> str:
     OPC UA device's endpoint path kept (`opc.tcp://host:port/PATH`)."""
     if protocol != "opcua":
         return f"127.0.0.1:{port}"
-    path = url.split("/", 3)[3] if url.count("/") >= 3 else ""
-    return f"opc.tcp://127.0.0.1:{port}/{path}"
+    return f"opc.tcp://127.0.0.1:{port}/{endpoint_path(url)}"
 
 
 def holds(value: Any, want: Any, scale: float) -> bool:

@@ -57,6 +57,9 @@ def _factory_of(system: IRSystem, hook: str) -> IRController:
     )
 
 
+DIAL = 150  # pixels: each of Figure 33's displays beside the plan view is a square this wide
+
+
 @dataclass
 class Sonar:
     """The beams the sonar simulator's `ping` returns first: their world fields, their angles
@@ -66,6 +69,14 @@ class Sonar:
     fields: list[str]
     angles: list[float]
     reach: float
+
+    @property
+    def pixels(self) -> float:
+        """How long a beam at its full range is drawn: DIAL - 20 px, shorter where the widest
+        beam would otherwise leave the display (its end kept 10 px inside the sides; the
+        submarine's ±39° beams are drawn 103 px long)."""
+        widest = max((abs(math.sin(math.radians(a))) for a in self.angles), default=0.0)
+        return DIAL - 20 if widest == 0 else round(min(DIAL - 20, (DIAL / 2 - 10) / widest), 1)
 
 
 def _sonar(simulator: IRController, hooks: ModuleType) -> Sonar | None:
@@ -191,17 +202,6 @@ def svg(trace: Trace, found: Scene, f: Frame) -> str:
     return "".join(out)
 
 
-DIAL = 150  # pixels: each of Figure 33's displays beside the plan view is a square this wide
-
-
-def beam_pixels(angles: list[float]) -> float:
-    """How long a beam at its full range is drawn: DIAL - 20 px, shorter where the widest
-    beam would otherwise leave the display (its end kept 10 px inside the sides; the
-    submarine's ±39° beams are drawn 103 px long)."""
-    widest = max((abs(math.sin(math.radians(a))) for a in angles), default=0.0)
-    return DIAL - 20 if widest == 0 else round(min(DIAL - 20, (DIAL / 2 - 10) / widest), 1)
-
-
 def _beam_end(angle: float, reach: float) -> tuple[float, float]:
     """Where a beam of `reach` pixels at `angle` degrees off the bow ends, from the sonar
     display's origin (the bow, at the bottom's middle, the bow up)."""
@@ -229,7 +229,7 @@ def displays(found: Scene) -> str:
     out.append(f'<text id="speed-text" x="{c}" y="{c + 28}"></text></svg>')
     out.append(f'<svg id="sonar" class="display" width="{DIAL}" height="{DIAL}">')
     if found.sonar is not None:
-        pixels = beam_pixels(found.sonar.angles)
+        pixels = found.sonar.pixels
         for n, angle in enumerate(found.sonar.angles):
             x, y = _beam_end(angle, pixels)
             out.append(f'<line class="beam" id="beam-{n}" data-angle="{angle}" ')
@@ -260,7 +260,7 @@ def payload(
     if found.sonar is not None and all(n in trace.world for n in found.sonar.fields):
         beams = found.sonar.fields
         sonar = {"reach": found.sonar.reach, "angles": found.sonar.angles}
-        sonar["pixels"] = beam_pixels(found.sonar.angles)
+        sonar["pixels"] = found.sonar.pixels
         sonar["ranges"] = [[number(v) for v in trace.world[n]] for n in beams]
     # the depth display's scale: the deepest it has to show, ship, order or bottom
     depths = [v for n in ("depth", "depth_cmd", "bottom_depth") for v in trace.world.get(n, [])]
