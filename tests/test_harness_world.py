@@ -8,6 +8,7 @@ launcher stood in for (nothing started)."""
 from __future__ import annotations
 
 import importlib
+import shutil
 import sys
 from pathlib import Path
 from types import ModuleType, SimpleNamespace
@@ -110,3 +111,30 @@ def test_a_command_written_is_read_back_with_its_arguments_by_name(
         assert h.status("sup").error_num == 0
     finally:
         h.close()
+
+
+def test_the_stand_in_named_is_the_one_its_process_runs_in_the_modules_place() -> None:
+    plans = {
+        "pa": SimpleNamespace(stand_ins={}),
+        "pb": SimpleNamespace(stand_ins={"cr": ("cr_sim", ("cr", "ct"))}),
+    }
+    assert harness.stand_in_of(plans, "cr") == "cr_sim"
+
+
+def test_a_built_harness_removes_its_scratch_package_when_closed_or_finds_it_gone(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`Harness.build` generates into a scratch directory of its own; closing removes it,
+    closing twice is harmless, and a scratch something else removed already (a temporary
+    files' cleaner, during a long run) is no error at the close."""
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    timed = REPO / "tests" / "fixtures" / "language" / "timed"
+    h = harness.Harness.build(timed)
+    scratch = Path(h.package.__file__ or "").parents[1]
+    assert scratch.name.startswith("rcsgen-harness-") and scratch.is_dir()
+    h.close()
+    h.close()
+    assert not scratch.exists()
+    gone = harness.Harness.build(timed)
+    shutil.rmtree(Path(gone.package.__file__ or "").parents[1])
+    gone.close()

@@ -225,3 +225,8 @@ def test_the_machine_takes_each_size_the_hooks_declare() -> None:
         "floor_angle": -5.0,
         "seam": 2.0,
     }
+
+
+def test_a_block_is_cut_out_of_its_asset_with_both_of_its_tags_and_nothing_else() -> None:
+    inside, rest = player._block("<p>a</p>\n<style>\nb { }\n</style>\n<p>c</p>", "style")
+    assert (inside, rest) == ("b { }", "<p>a</p>\n\n<p>c</p>")

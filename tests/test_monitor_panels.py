@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import re
+import sys
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 from types import ModuleType, SimpleNamespace
@@ -845,3 +846,35 @@ def test_a_module_row_has_a_cell_under_each_header_an_operator_reads() -> None:
     assert [key for key, _ in monitor.COLUMNS] == list(app.cells("arm", "", module_row()))
     world = ["field", "value", "override"]
     assert list(monitor.WORLD_COLUMNS) == list(app.world_cells("arm_x", 1.5)) == world
+
+
+def test_the_periodicity_panels_headers_say_what_each_figure_is_and_its_unit() -> None:
+    """The periodicity panel's columns, in order, as their headers read, each one of a
+    process row's cells (no screen needed)."""
+    from rcsgen.tools import monitor_periodicity
+
+    assert " | ".join(label for _, label in monitor_periodicity.COLUMNS) == (
+        "process | period | wake-ups | period error mean/max us | lateness p99/max us "
+        "| warnings | cycle last/max us | slowest module (max us)"
+    )
+    cells = monitor_periodicity.row_of("cell", {"state": "running"}, None)
+    assert [key for key, _ in monitor_periodicity.COLUMNS] == list(cells)
+
+
+def test_a_segment_unreadable_from_the_start_shows_each_module_with_blank_cells(
+    cell: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Nothing read yet: each module's row is its name and a blank under every other header
+    (never a `None` a person would take for a value), the world table likewise empty."""
+    got: dict[str, Any] = {}
+
+    async def look(app: monitor.Monitor, console: FakeConsole, pilot: Any) -> None:
+        table = app.query_one("#modules", DataTable)
+        got["said"] = said(app).plain
+        got["arm"] = [cell_text(table, "arm", k).plain for k, _ in monitor.COLUMNS]
+
+    module = sys.modules[__name__]
+    monkeypatch.setattr(module, "snapshot", lambda: OSError("not there yet"))
+    on_screen(cell, look)
+    assert got["said"] == "cannot read seg_cellseg: not there yet; showing the last values"
+    assert got["arm"] == ["arm"] + [""] * (len(monitor.COLUMNS) - 1)

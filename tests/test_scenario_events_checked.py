@@ -39,6 +39,14 @@ ANSWER = "operator:\n  answers:\n    - {task: "
             ),
         ),
         (
+            EVENT + "reply: {zzz/qq: DONE}\n",
+            (
+                "E289",
+                "reply to `zzz/qq`: not a channel of an operator module of `platoon`",
+                "declared channels: `ldr/pl`",
+            ),
+        ),
+        (
             EVENT + "reply: {alpha: ERROR(BLOCKED)}\n",
             (
                 "E408",

@@ -88,6 +88,10 @@ def test_the_scripted_person_answers_by_the_first_answer_that_matches_else_the_d
     assert script.how(request("sgt", "HALT_ALL", "pa")) is by_client  # another operator's
     assert OperatorScript((by_task,)).how(request("ldr", "MOVE", "pa")) is None  # no default
     assert OperatorScript((), ScriptedAnswer(0, "never")).how(request("a", "b", "c")) is None
+    # a scenario's runs share its script: an answer is a value no run can change
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        by_task.after = 0  # type: ignore[misc]
+    assert len({by_task, ScriptedAnswer(2, "DONE", task="SPOT_REPORT")}) == 1
     everything = ScriptedAnswer(0, "DONE", operator="ldr", task="MOVE", client="pa")
     assert everything.matches(request("ldr", "MOVE", "pa"))
     for other in (

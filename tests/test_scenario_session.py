@@ -101,6 +101,30 @@ def test_a_signal_while_the_harness_opens_stops_the_run_and_says_which_signal(
     assert handlers == (signal.default_int_handler, signal.SIG_DFL)
 
 
+def test_a_signal_a_hook_turned_into_its_own_error_still_stops_the_run_as_that_signal(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """SIGINT while the system is being made, and a hook-state factory there catches the
+    interruption and fails in its own words: the run stops as interrupted by SIGINT, not as
+    that error."""
+
+    def opening(*_: object) -> None:
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+        except KeyboardInterrupt:
+            raise ValueError("the map could not be read") from None
+
+    monkeypatch.setattr(session, "open_harness", opening)
+    scenario = Scenario("s", "S", tmp_path / "s.yaml", tmp_path, None, 5, None, [], [])
+    saved = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    try:
+        ran = session.execute(scenario, tmp_path, False, lambda _: None, io.StringIO())
+    finally:
+        signal.signal(signal.SIGINT, saved[0])
+        signal.signal(signal.SIGTERM, saved[1])
+    assert (ran.signal, ran.failed, ran.harness, ran.result) == (signal.SIGINT, None, None, None)
+
+
 def test_a_trace_path_that_is_a_folder_is_refused_with_the_systems_reason(tmp_path: Path) -> None:
     folder = tmp_path / "t.jsonl"
     folder.mkdir()

@@ -187,3 +187,26 @@ def test_figure_33s_displays_are_drawn_for_the_script_to_turn_and_fill() -> None
     plain = sea.displays(sea.Scene([], [], [], None))
     assert '<svg id="sonar" class="display" width="150" height="150"></svg>' in plain
     assert "beam" not in plain
+
+
+def test_without_keels_the_frame_is_the_track_and_route_with_the_margin_alone() -> None:
+    """No keel: nothing widens the frame beyond the margin (400 m) around the track and the
+    route: x from -400 to 1400 m (1,800 m over 760 px), y from -400 to 500 m."""
+    found = sea.Scene([], [(0.0, 0.0), (1000.0, 0.0)], [], None)
+    f = sea.frame(trace(), found)
+    assert (f.x0, f.y1, round(f.scale, 6), f.width, f.height) == (-400.0, 500.0, 0.422222, 760, 380)
+
+
+@pytest.mark.parametrize(
+    ("angles", "pixels"),
+    [
+        ([0.0], 130),  # dead ahead: DIAL - 20, nothing to keep inside the sides
+        ([-90.0, 90.0], 65.0),  # abeam: its end 10 px inside a side, 65 px from the bow
+        ([-39.0, 0.0, 39.0], 103.3),  # the submarine's
+        ([-10.0, 10.0], 130),  # narrow: the full DIAL - 20
+    ],
+)
+def test_a_full_range_beam_is_drawn_as_long_as_the_widest_stays_inside(
+    angles: list[float], pixels: float
+) -> None:
+    assert sea.Sonar(["f"] * len(angles), angles, 800.0).pixels == pixels

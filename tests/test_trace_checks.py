@@ -496,3 +496,14 @@ def test_a_change_line_may_remove_what_the_reader_does_not_read() -> None:
         text = GOOD + "\n" + json.dumps({"cycle": 2, "removed": [path]})
         trace = traces.parse(text, "t")
         assert trace.cycles == [1, 2] and trace.columns["co"]["state"] == ["NOP", "NOP"]
+
+
+def test_a_change_line_that_removes_one_modules_field_is_checked_whole() -> None:
+    """A change line that changes one module and removes another's field: the modules are
+    checked whole, not only the one changed (the removal is what broke the other)."""
+    first = line(1, None, co=co(), cc=co())
+    second = '{"cycle": 2, "changed": {"modules": {"cc": {"status": "EXECUTING"}}}, '
+    second += '"removed": [["modules", "co", "rule"]]}'
+    with pytest.raises(traces.TraceError) as caught:
+        traces.parse(first + "\n" + second + "\n", "t")
+    assert str(caught.value) == "t:2: module co has no `rule`"
