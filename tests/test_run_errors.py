@@ -7,6 +7,7 @@ person opens, or the rule, or the spec file, as much as is known."""
 
 from __future__ import annotations
 
+import traceback
 from pathlib import Path
 
 import pytest
@@ -223,7 +224,9 @@ def test_verbose_shows_the_hooks_own_traceback() -> None:
         raise ValueError("deep inside the hook")
     except ValueError as cause:
         error = hook_error("wc", "native_job", "JOB/S0/1", cause)
+        python_says = "".join(traceback.format_exception(cause))
     shown = details(error)
+    assert shown == python_says  # the hook's own traceback, as Python prints it: nothing added
     assert shown.startswith("Traceback (most recent call last):\n")
     assert shown.endswith("ValueError: deep inside the hook\n")
     assert "test_verbose_shows_the_hooks_own_traceback" in shown

@@ -388,6 +388,7 @@ def test_the_plc_runs_its_cycles_and_reports_its_plants_world(
     assert code == 0, capsys.readouterr().err
     assert int(ready.read_text()) > 0 and ready.read_text().count("\n") == 1
     world = json.loads(report.read_text())
+    assert list(world) == sorted(world)  # the same plant, the same report, byte for byte
     assert world["_cycles"] == 3
     assert world["level"] == pytest.approx(2.5)
     assert world["valve_cmd"] == pytest.approx(7.0)
