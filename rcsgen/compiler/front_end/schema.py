@@ -16,7 +16,7 @@ from functools import cache
 from importlib.resources import files
 from typing import TYPE_CHECKING, Any, cast
 
-from ..diagnostics import Diagnostic, Span, did_you_mean
+from ..diagnostics import Diagnostic, Span, did_you_mean, number_shown
 from .schema_fast import Check, Unsupported, compile_schema
 
 if TYPE_CHECKING:
@@ -39,6 +39,10 @@ _NAME_RULES = {
     r"^[a-z][a-z0-9_]*\.[A-Z][A-Z0-9_]*$": "expected `<subordinate>.<COMMAND>`",
     r"^([A-Z][A-Z0-9_]*|[a-z][a-z0-9_]*\.reason)$": (
         "expected an UPPER_CASE reason, or `<subordinate>.reason` to pass its reason up"
+    ),
+    r"^[0-9]{1,9}(\.[0-9]+)?\s*(s|ms|cycles?)$": (
+        "expected seconds (2.5), `<number> s`, `<number> ms` or `<whole number> cycles`, "
+        "the number at most 9 digits before its point"
     ),
 }
 
@@ -280,9 +284,17 @@ def _choice(f: _Failed) -> list[Diagnostic]:
     )
 
 
-def _minimum(f: _Failed) -> list[Diagnostic]:
-    bound = "greater than" if f.error.validator == "exclusiveMinimum" else "at least"
-    return f.one("S005", f"{f.where}must be {bound} {f.value}, got {f.inst}")
+_BOUNDS = {
+    "minimum": "at least",
+    "exclusiveMinimum": "greater than",
+    "maximum": "at most",
+    "exclusiveMaximum": "less than",
+}
+
+
+def _bound(f: _Failed) -> list[Diagnostic]:
+    bound = _BOUNDS[str(f.error.validator)]
+    return f.one("S005", f"{f.where}must be {bound} {f.value}, got {number_shown(f.inst)}")
 
 
 def _min_size(f: _Failed) -> list[Diagnostic]:
@@ -315,8 +327,10 @@ _BY_KEYWORD: dict[str, Callable[[_Failed], list[Diagnostic]]] = {
     "pattern": _pattern,
     "enum": _choice,
     "const": _choice,
-    "exclusiveMinimum": _minimum,
-    "minimum": _minimum,
+    "exclusiveMinimum": _bound,
+    "minimum": _bound,
+    "exclusiveMaximum": _bound,
+    "maximum": _bound,
     "minItems": _min_size,
     "minProperties": _min_size,
     "uniqueItems": _unique_items,
@@ -334,7 +348,10 @@ def _composite(error: ValidationError, data: object, file: str, span: Span) -> l
     if len(forms) != len(branches) or not forms:
         from jsonschema.exceptions import best_match
 
-        best = best_match(error.context)
+        # the alternative of the value's own kind says what is wrong (a string against the
+        # string form's pattern, not "expected a number")
+        own = [e for e in error.context if e.validator != "type"]
+        best = best_match(own or error.context)
         return _diagnose(best, data, file) if best else [Diagnostic(span, "S006", error.message)]
     if error.validator == "anyOf":
         return [
