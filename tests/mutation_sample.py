@@ -588,7 +588,48 @@ def scratch(tree: Path) -> None:
             shutil.copy2(src, dst)
 
 
-def selection(m: Mutant, cover_map: dict[str, Any], budget: float, reach: float = 0.0) -> list[str]:
+def importers(module: str, root: Path = REPO) -> set[str]:
+    """The test files that import `module` (a path, `rcsgen/tools/monitor.py`) by name:
+    `import rcsgen.tools.monitor`, `from rcsgen.tools.monitor import ...`, `from
+    rcsgen.tools import monitor` (in any function too). Its own tests: they read its tables
+    and defaults, which run at import, so the line tracer cannot tell them apart."""
+    dotted = module.removesuffix(".py").replace("/", ".").removesuffix(".__init__")
+    parent, _, name = dotted.rpartition(".")
+    return {
+        file
+        for file, imported in _imports(root).items()
+        if dotted in imported or (parent, name) in imported
+    }
+
+
+_IMPORTS: dict[Path, dict[str, set[Any]]] = {}
+
+
+def _imports(root: Path) -> dict[str, set[Any]]:
+    """Each test file's imports: the dotted names it imports or imports from, and for each
+    `from A import b`, (A, b)."""
+    if root not in _IMPORTS:
+        found: dict[str, set[Any]] = {}
+        for path in sorted((root / "tests").glob("test_*.py")):
+            names: set[Any] = set()
+            for node in ast.walk(ast.parse(path.read_bytes())):
+                if isinstance(node, ast.Import):
+                    names.update(alias.name for alias in node.names)
+                elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                    names.add(node.module)
+                    names.update((node.module, alias.name) for alias in node.names)
+            found[str(path.relative_to(root))] = names
+        _IMPORTS[root] = found
+    return _IMPORTS[root]
+
+
+def selection(
+    m: Mutant,
+    cover_map: dict[str, Any],
+    budget: float,
+    reach: float = 0.0,
+    own: set[str] | frozenset[str] = frozenset(),
+) -> list[str]:
     """The tests a mutant is tried against: those that run its lines, fastest first, until
     their own times add up to `budget`. A line run at import (a table, a default) is run
     by every test that uses the module: those that run most of the module come first (the
@@ -597,7 +638,12 @@ def selection(m: Mutant, cover_map: dict[str, Any], budget: float, reach: float 
     Then, up to `reach` seconds in all, the fastest test of each file that runs the lines and
     has none chosen yet (fastest first): one slow traced test (a prove, 5-10 s traced) no
     longer fills the budget alone and leaves the other files' tests of the line untried.
-    What the budget chose comes first and stays: a superset, so no kill is lost."""
+    What the budget chose comes first and stays: a superset, so no kill is lost.
+
+    A line run at import is the module's: its tables and defaults are read by the tests of
+    the files that import it (`own`, from `importers`), which the tracer sees running no
+    line of it, or only some. After all the above, each test of those files not chosen yet
+    (the quickest file first, its tests in the order they run), up to `reach` in all."""
     tests = cover_map["tests"]
     by_line = cover_map["lines"].get(m.path, {})
     if m.toplevel:
@@ -652,6 +698,17 @@ def selection(m: Mutant, cover_map: dict[str, Any], budget: float, reach: float 
         if file not in files and spent + tests[t][1] <= reach:
             chosen.append(tests[t][0])
             spent += tests[t][1]
+    if m.toplevel and own:
+        of_file: dict[str, list[int]] = defaultdict(list)
+        for t, (name, *_) in enumerate(tests):
+            if name.partition("::")[0] in own:
+                of_file[name.partition("::")[0]].append(t)
+        taken = set(chosen)
+        for file in sorted(of_file, key=lambda f: (sum(tests[t][1] for t in of_file[f]), f)):
+            for t in of_file[file]:
+                if tests[t][0] not in taken and spent + tests[t][1] <= reach:
+                    chosen.append(tests[t][0])
+                    spent += tests[t][1]
     return chosen
 
 
@@ -967,7 +1024,8 @@ def main(argv: list[str] | None = None) -> int:
                     why = equivalent[key]
                     results.append(Result(m.path, key, m.kind, "equivalent", 0, 0.0, why))
                     continue
-                chosen = selection(m, cover_map, args.budget, args.reach)
+                own = importers(m.path) if m.toplevel else set()
+                chosen = selection(m, cover_map, args.budget, args.reach, own)
                 budgeted = len(selection(m, cover_map, args.budget))  # chosen's first ones
                 r = attempt(tree, m, key, chosen, done, budgeted)
                 results.append(r)

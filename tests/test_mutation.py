@@ -612,3 +612,49 @@ def test_a_mutant_run_past_its_time_leaves_no_process_and_no_segment(
     # reaped by init once killed: gone within a moment
     wait_for(lambda: not Path(f"/proc/{child}").exists(), "the test's child gone", deadline=5)
     assert not list(Path("/dev/shm").glob("rcsgen_mut_*")), "the hung test's segment was left"
+
+
+def test_a_line_run_at_import_is_tried_against_the_tests_of_the_files_that_import_it(
+    tmp_path: Path,
+) -> None:
+    """A table or a default runs at import: the tests that read it run no line of the
+    module the tracer can see. The files that import the module by name (any of the three
+    forms, in a function too) are its own: their tests come after the budget's, up to
+    --reach; a file that only names the module in a string is not one of them."""
+    tests = tmp_path / "tests"
+    tests.mkdir()
+    (tests / "test_a.py").write_text("from pkg.sub.m import TABLE\n")
+    (tests / "test_b.py").write_text("def test_x():\n    from pkg.sub import other, m\n")
+    (tests / "test_c.py").write_text("import pkg.sub.m as m\n")
+    (tests / "test_d.py").write_text("import pkg.sub\nNAME = 'pkg.sub.m'\n")
+    (tests / "helper.py").write_text("from pkg.sub.m import TABLE\n")  # not a test file
+    own = mutation_sample.importers("pkg/sub/m.py", tmp_path)
+    assert own == {"tests/test_a.py", "tests/test_b.py", "tests/test_c.py"}
+    cover_map = {
+        "tests": [
+            ["tests/test_x.py::runs_it", 0.1, True],
+            ["tests/test_a.py::reads_the_table", 0.2, True],
+            ["tests/test_a.py::reads_it_again", 0.3, True],
+            ["tests/test_b.py::slow", 50.0, True],
+            ["tests/test_d.py::not_its_own", 0.01, True],
+        ],
+        "lines": {"pkg/sub/m.py": {"3": [0]}},
+    }
+    m = mutation_sample.Mutant(
+        "pkg/sub/m.py", 3, 3, "string", '"a"', "'XXaXX'", (3, 8), (3, 11), toplevel=True
+    )
+    assert mutation_sample.selection(m, cover_map, 10, reach=20, own=own) == [
+        "tests/test_x.py::runs_it",
+        "tests/test_a.py::reads_the_table",
+        "tests/test_a.py::reads_it_again",
+    ]
+    assert mutation_sample.selection(m, cover_map, 10, reach=60, own=own)[-1] == (
+        "tests/test_b.py::slow"
+    )
+    # a line inside a function is its callers': the importers are not added
+    inside = mutation_sample.Mutant(
+        "pkg/sub/m.py", 3, 3, "string", '"a"', "'XXaXX'", (3, 8), (3, 11)
+    )
+    assert mutation_sample.selection(inside, cover_map, 10, reach=60, own=own) == [
+        "tests/test_x.py::runs_it"
+    ]
