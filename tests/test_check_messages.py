@@ -340,3 +340,17 @@ def test_an_undeclared_world_field_with_no_near_name_lists_the_world_fields(
             "declared world fields: `level`, `mode`, `pump_on`",
         )
     ]
+
+
+def test_a_command_name_with_a_line_break_is_refused_as_an_upper_case_identifier(
+    tmp_path, monkeypatch
+) -> None:
+    tank = TANK.replace("  FILL:\n", '  "FILL\\n":\n', 1)
+    assert said(tmp_path, monkeypatch, SYSTEM, tank)[:1] == [
+        (
+            "E601",
+            "`FILL\\n` is not a valid command name: expected an UPPER_CASE identifier (A-Z, "
+            "then A-Z, 0-9, _)",
+            "names are plain ASCII identifiers; remove the line break or other character",
+        )
+    ]

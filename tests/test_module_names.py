@@ -340,3 +340,25 @@ def test_the_reserved_layout_names_are_exactly_what_generated_layouts_have() -> 
     spec_like = {n for n in naming.LAYOUT_NAMES if n.startswith(("WORLD_", "PROCESS_", "PACE_"))}
     assert fixed - naming.LAYOUT_NAMES == set(), "generated but not reserved"
     assert naming.LAYOUT_NAMES - fixed - spec_like == set(), "reserved but never generated"
+
+
+@pytest.mark.parametrize("suffix", naming.SUB_SUFFIXES)
+def test_a_local_named_like_an_attribute_kept_for_a_subordinate_is_refused(
+    tmp_path: Path, suffix: str
+) -> None:
+    """`top` keeps `var<suffix>` for its subordinate `var`; a local that becomes that name
+    (locals are `var_<name>` in the class) is one E228, naming both."""
+    case = ROOT / "tests" / "cases" / "invalid" / "e228-name-collision--sub-attributes"
+    spec = tmp_path / "spec"
+    shutil.copytree(case, spec)
+    top = spec / "top.yaml"
+    local = suffix.removeprefix("_")
+    top.write_text(top.read_text().replace("  status:  # expect: E228\n", f"  {local}:\n"))
+    errors = compile_paths([spec]).diagnostics.errors
+    assert [(d.code, d.message) for d in errors] == [
+        (
+            "E228",
+            f"local `{local}` becomes `var{suffix}` in the generated class of `top`, which is "
+            f"already subordinate `var` ({top}:3:21)",
+        )
+    ]
