@@ -391,3 +391,25 @@ def test_a_report_passes_a_subordinates_reason_up_or_gives_its_own_or_none(lower
             reason_of_attribute="",
         ),
     )
+
+
+def test_a_reason_passed_up_maps_each_of_the_subordinates_reasons_to_the_same_name(
+    lowered,
+) -> None:
+    """`report: ERROR, reason: dev.reason`: dev's LOST, WORN and BLOCKED become top's own
+    codes of the same name (E272 makes sure GO declares each); anything else is NONE."""
+    maps = {
+        a.reason_map
+        for command in lowered["top"].commands
+        for state in command.states
+        for rule in state.rules
+        for a in rule.actions
+        if isinstance(a, ir.IRReport) and a.reason_of == "dev"
+    }
+    assert maps == {
+        (
+            ("DEV_REASON_LOST", "REASON_LOST"),
+            ("DEV_REASON_WORN", "REASON_WORN"),
+            ("DEV_REASON_BLOCKED", "REASON_BLOCKED"),
+        )
+    }
