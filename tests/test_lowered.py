@@ -413,3 +413,16 @@ def test_a_reason_passed_up_maps_each_of_the_subordinates_reasons_to_the_same_na
             ("DEV_REASON_BLOCKED", "REASON_BLOCKED"),
         )
     }
+
+
+def test_a_functions_doc_opens_its_docstring_in_the_generated_module() -> None:
+    """`functions: target: doc: ...`: the doc is what a reader of pln.py meets first, then
+    the body it computes (the doc was read and dropped before)."""
+    root = Path(__file__).resolve().parent.parent
+    (system,) = compile_paths([root / "specs" / "cell"], analyse=False).systems
+    (pln,) = [c for c in system.controllers if c.name == "pln"]
+    (target,) = pln.functions
+    doc = "Where move `step` takes the part, mm along the rail (the cell's job)."
+    assert (target.name, target.doc) == ("target", doc)
+    generated = (root / "generated" / "cell" / "pln.py").read_text()
+    assert f'def target(step: int) -> float:\n    """{doc}\n\n    Pure function: 20.0' in generated

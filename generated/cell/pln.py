@@ -30,7 +30,9 @@ S0 = 1
 
 
 def target(step: int) -> float:
-    """Pure function: 20.0 if step == 0 else (110.0 if step == 1 else (50.0 if step == 2 else (60.0
+    """Where move `step` takes the part, mm along the rail (the cell's job).
+
+    Pure function: 20.0 if step == 0 else (110.0 if step == 1 else (50.0 if step == 2 else (60.0
     if step == 3 else 140.0)))
     """
     return (

@@ -58,7 +58,10 @@ IN_POSITION = 0.001
 
 
 def drive(error: float) -> float:
-    """Pure function: max(-MAX_SPEED, min(MAX_SPEED, GAIN * error))"""
+    """The speed ordered to close `error` mm on one axis.
+
+    Pure function: max(-MAX_SPEED, min(MAX_SPEED, GAIN * error))
+    """
     return max(-MAX_SPEED, min(MAX_SPEED, GAIN * error))
 
 

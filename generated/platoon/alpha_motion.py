@@ -60,7 +60,10 @@ CYCLE_PERIOD = 1.0  # seconds per cycle of its process
 
 
 def approach(v: float, target: float, step: float) -> float:
-    """Pure function: v + max(-step, min(step, target - v))"""
+    """v moved towards target by at most step.
+
+    Pure function: v + max(-step, min(step, target - v))
+    """
     return v + max(-step, min(step, target - v))
 
 

@@ -98,12 +98,18 @@ BATTLE_STATIONS = 1
 
 
 def vented(co: float, made: float, flow: float) -> float:
-    """Pure function: co + made - co * flow"""
+    """The gas after the fire has made some and the ventilation has exchanged its share.
+
+    Pure function: co + made - co * flow
+    """
     return co + made - co * flow
 
 
 def cooled(temp: float) -> float:
-    """Pure function: max(PUMPS_NORMAL, temp - PUMPS_COOLING)"""
+    """The pumps' temperature a cycle on with no fire, back towards their running temperature.
+
+    Pure function: max(PUMPS_NORMAL, temp - PUMPS_COOLING)
+    """
     return max(PUMPS_NORMAL, temp - PUMPS_COOLING)
 
 

@@ -87,12 +87,18 @@ CLOSE_CONTACT = 3000.0
 
 
 def wrap(a: float) -> float:
-    """Pure function: (a + 540.0) % 360.0 - 180.0"""
+    """An angle in degrees folded into [-180, 180).
+
+    Pure function: (a + 540.0) % 360.0 - 180.0
+    """
     return (a + 540.0) % 360.0 - 180.0
 
 
 def order(error: float) -> float:
-    """Pure function: max(-RUDDER_MAX, min(RUDDER_MAX, GAIN * error))"""
+    """The rudder angle that servos a heading error away, clamped to the rudder's range.
+
+    Pure function: max(-RUDDER_MAX, min(RUDDER_MAX, GAIN * error))
+    """
     return max(-RUDDER_MAX, min(RUDDER_MAX, GAIN * error))
 
 

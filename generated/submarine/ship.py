@@ -87,7 +87,10 @@ EPM = 2
 
 
 def clamp(x: float, limit: float) -> float:
-    """Pure function: max(-limit, min(limit, x))"""
+    """x limited to -limit..limit.
+
+    Pure function: max(-limit, min(limit, x))
+    """
     return max(-limit, min(limit, x))
 
 

@@ -447,6 +447,7 @@ class IRFunction:
     params: tuple[tuple[str, Type], ...]  # (name, type) in call order
     returns: Type
     body: IRExpr
+    doc: str = ""  # the spec's, the docstring's first paragraph
 
 
 @dataclass(frozen=True)

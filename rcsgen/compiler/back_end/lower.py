@@ -221,7 +221,7 @@ class _ControllerLowering:
             hooks_module_span=_span(spec.hooks_module),
             timed=any(command.timed for command in commands),
             functions=tuple(
-                ir.IRFunction(f.name, f.params, f.returns, self.expression(f.tree, f.text))
+                ir.IRFunction(f.name, f.params, f.returns, self.expression(f.tree, f.text), f.doc)
                 for f in c.functions.values()
             ),
             results=tuple(

@@ -904,6 +904,7 @@ class _ControllerChecker:
                     tree,
                     one_line(function.body.value),
                     function.span,
+                    function.doc,
                 )
         return checked
 

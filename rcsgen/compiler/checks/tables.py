@@ -279,6 +279,7 @@ class CheckedFunction:
     tree: expr.Expr
     text: str
     span: Span
+    doc: str = ""  # what the spec says it computes
 
 
 @dataclass(frozen=True)
