@@ -292,6 +292,24 @@ def carried(cover_map: dict[str, Any], edits: dict[str, tuple[str, str]]) -> dic
     return cover_map | {"lines": lines}
 
 
+def needs_carrying(cover_map: dict[str, Any], commit: str, digest: str) -> bool:
+    """Whether a kept map is to be carried from `commit` to the sources now. A map carried
+    before (and written back) is not carried twice: on the same sources it is current, on
+    others its lines are no longer where `commit` had them, and it is refused (MapError)."""
+    if "carried" not in cover_map:
+        return True
+    if cover_map.get("digest") == digest:
+        return False
+    raise MapError(
+        f"the kept map was carried from {cover_map['carried']} already and the sources "
+        f"changed since: carry a fresh copy of the map made on {commit}"
+    )
+
+
+class MapError(Exception):
+    """A kept coverage map that cannot be used as asked."""
+
+
 def edits_since(commit: str) -> dict[str, tuple[str, str]]:
     """Every mutated module whose text differs from its text at `commit`: (then, now)."""
     found = {}
@@ -988,8 +1006,14 @@ def main(argv: list[str] | None = None) -> int:
         cover_file = args.cover or tree / "cover.json"
         digest = sources_digest()
         cover_map = json.loads(cover_file.read_text()) if cover_file.exists() else {}
-        if args.carry and cover_map:  # the map was made on the modules as at this commit
-            cover_map = carried(cover_map, edits_since(args.carry))
+        try:
+            carry = bool(args.carry and cover_map) and needs_carrying(cover_map, args.carry, digest)
+        except MapError as error:
+            print(f"mutation_sample: {cover_file}: {error}", file=sys.stderr)
+            return 2
+        if carry:
+            # the map was made on the modules as at this commit
+            cover_map = carried(cover_map, edits_since(args.carry)) | {"carried": args.carry}
             if not args.add:
                 cover_map["digest"] = digest
                 cover_file.write_text(json.dumps(cover_map))

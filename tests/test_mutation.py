@@ -658,3 +658,19 @@ def test_a_line_run_at_import_is_tried_against_the_tests_of_the_files_that_impor
     assert mutation_sample.selection(inside, cover_map, 10, reach=60, own=own) == [
         "tests/test_x.py::runs_it"
     ]
+
+
+def test_a_kept_map_is_carried_once_and_refused_when_carried_before_to_other_sources() -> None:
+    """A carried map is written back with the sources' digest: the next run on the same
+    sources uses it as it is, and a run on changed sources refuses it (its lines are no
+    longer where the commit had them: carrying it again would misplace every edited line)."""
+    fresh = {"tests": [], "lines": {}, "digest": "made"}
+    assert mutation_sample.needs_carrying(fresh, "abc123", "now")
+    written = fresh | {"carried": "abc123", "digest": "now"}
+    assert not mutation_sample.needs_carrying(written, "abc123", "now")
+    with pytest.raises(mutation_sample.MapError) as refused:
+        mutation_sample.needs_carrying(written, "abc123", "later")
+    assert str(refused.value) == (
+        "the kept map was carried from abc123 already and the sources changed since: carry a "
+        "fresh copy of the map made on abc123"
+    )
