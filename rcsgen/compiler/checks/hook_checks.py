@@ -98,10 +98,13 @@ def _no_hooks_module(spec: ControllerSpec, diags: Diagnostics) -> None:
         first = spec.hooks_state.span
     if not spec.hooks and spec.hooks_state is None:
         first = next(iter(spec.plans.values())).planner.span
+    what = "hooks" if spec.hooks else "a planner"
+    if not spec.hooks and spec.hooks_state is not None:
+        what = "a hook-state factory"
     diags.error(
         first,
         "E215",
-        f"`{spec.name}` declares {'hooks' if spec.hooks else 'a planner'} but no `hooks_module`",
+        f"`{spec.name}` declares {what} but no `hooks_module`",
         "add `hooks_module: <package>.<module>`, a Python module in the system directory",
     )
 

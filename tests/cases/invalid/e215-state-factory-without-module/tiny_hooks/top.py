@@ -1,0 +1,5 @@
+"""Hooks of top."""
+
+
+def nudge(n):
+    return n + 1
