@@ -272,3 +272,28 @@ def test_an_unused_acknowledgement_says_where_its_code_is_acknowledged(check) ->
         f"remove it if the finding is gone; {code} is about {kind}: acknowledge it {where[kind]}"
         for code, kind in ABOUT.items()
     ]
+
+
+def test_an_unmatched_acknowledgement_after_others_is_still_w303(tmp_path: Path) -> None:
+    """The cell's supervisor acknowledges a finding it has (W505, used) and one that only
+    `prove` can find (W708, not checked here); a third after them that matches nothing is
+    W303 all the same."""
+    import shutil
+
+    root = Path(__file__).resolve().parent.parent
+    spec = tmp_path / "cell"
+    shutil.copytree(root / "specs" / "cell", spec, ignore=shutil.ignore_patterns("scenarios"))
+    sup = spec / "sup.yaml"
+    sup.write_text(
+        sup.read_text().replace(
+            "state, the echo already seen; it sends nothing, so no echo is skipped.\n",
+            "state, the echo already seen; it sends nothing, so no echo is skipped.\n"
+            "            - code: W509\n              reason: nothing to find\n",
+            1,
+        )
+    )
+    out = compile_paths([spec])
+    assert [(d.code, d.message) for d in out.diagnostics.items] == [
+        ("W303", "the acknowledgement of W509 on rule 4 of RUN MOVING matches no finding")
+    ]
+    assert [d.code for d in out.diagnostics.acknowledged] == ["W505"]
