@@ -349,3 +349,30 @@ def test_a_command_without_uses_leaves_the_next_command_s_uses_expanded() -> Non
     uses, whole = fragments.expand(load_text(text, "top.yaml"), {}, Diagnostics(), Span("top.yaml"))
     assert whole
     assert [u.command for u in uses] == ["GO", "GO", "GO", "BACK", "AWAY", "AWAY", "AWAY"]
+
+
+def chain(depth: int) -> str:
+    """A command whose S0 uses f1, f1's S uses f2, ... down to f<depth>, which reports."""
+    lines = ["controller: top", "fragments:"]
+    for n in range(1, depth + 1):
+        inner = f"{{use: f{n + 1}}}" if n < depth else "[{do: [report: DONE]}]"
+        lines += [f"  f{n}:", "    states:", f"      S: {inner}"]
+    lines += ["commands:", "  GO:", "    states:", "      S0: {use: f1}", ""]
+    return "\n".join(lines)
+
+
+def test_fragments_nest_eight_deep_and_no_deeper() -> None:
+    """Fragments within fragments: eight levels are expanded; a ninth is E298 at its use,
+    with the chain that leads to it."""
+    diags = Diagnostics()
+    uses, whole = fragments.expand(load_text(chain(8), "top.yaml"), {}, diags, Span("top.yaml"))
+    assert (whole, diags.items, len(uses)) == (True, [], 8)
+    diags = Diagnostics()
+    fragments.expand(load_text(chain(9), "top.yaml"), {}, diags, Span("top.yaml"))
+    assert [(d.code, d.message) for d in diags.items] == [
+        (
+            "E298",
+            "fragments nested more than 8 deep (f1 -> f2 -> f3 -> f4 -> f5 -> f6 -> f7 -> f8 "
+            "-> f9)",
+        )
+    ]
