@@ -7,6 +7,7 @@ through the state's other edges."""
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 from rcsgen.compiler.prove.adapter import DONE, EXECUTING
@@ -97,3 +98,17 @@ def test_the_run_that_shows_an_unbounded_start_ends_where_it_fails() -> None:
     )
     assert cycles == INFINITE
     assert [(e.report, t.state) for e, t in run] == [("ERROR", "S2")]
+
+
+def test_a_wait_longer_than_pythons_stack_is_bounded_not_an_internal_error() -> None:
+    """`after: 6000 cycles` before a HALT makes its actuators safe is a chain of 6000 states
+    (one per cycle waited): the bound walks it whole, 6001 cycles, as deep as it is, where a
+    recursive walk stopped with RecursionError (an internal error of `rcsgen prove`)."""
+    waits = [state(f"S0+{n}") for n in range(6000)]
+    graph = Graph(None, waits[0])  # type: ignore[arg-type]
+    graph.edges = {s: [(edge(), t)] for s, t in itertools.pairwise(waits)}
+    graph.edges[waits[-1]] = [(edge(DONE), state("done"))]
+    cycles, run = _bound(graph, waits[0])
+    assert cycles == 6001
+    assert len(run) == 6001
+    assert [t.state for _, t in run[-2:]] == ["S0+5999", "done"]

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
 
 from ..diagnostics import Span, counted
@@ -547,19 +547,18 @@ def _worst(
     on_path: set[State] = set()
     witness: dict[State, tuple[Edge, State] | None] = {}
 
-    def cost(edge: Edge, t: State) -> int:
+    # A depth-first walk without recursion: a path can be as long as a wait (`after: 6000
+    # cycles` is 6000 states), deeper than Python's stack. Each state's walk is a generator
+    # that yields the next state whose bound it needs; `bound` runs them on a stack of its own.
+    def cost(edge: Edge, t: State) -> Generator[State, int, int]:
         if goal(edge):
             return 1
         if stop(edge) or t.status != EXECUTING:
             return INFINITE
-        inner = worst(t)
+        inner = memo[t] if t in memo else INFINITE if t in on_path else (yield t)
         return INFINITE if inner == INFINITE else inner + 1
 
-    def worst(s: State) -> int:
-        if s in memo:
-            return memo[s]
-        if s in on_path:
-            return INFINITE
+    def worst(s: State) -> Generator[State, int, int]:
         on_path.add(s)
         best, chosen = 0, None
         for edge, t in graph.edges.get(s, []):
@@ -567,7 +566,7 @@ def _worst(
                 continue
             if t == s and any(v == EXECUTING and f for _, v, f in s.subs):
                 continue  # waiting for a subordinate's answer: its time, not this table's
-            c = cost(edge, t)
+            c = yield from cost(edge, t)
             if c > best or chosen is None:
                 best, chosen = c, (edge, t)
             if best == INFINITE:
@@ -577,24 +576,38 @@ def _worst(
         witness[s] = chosen
         return memo[s]
 
-    sys.setrecursionlimit(max(10_000, sys.getrecursionlimit()))
+    def bound(edge: Edge, t: State) -> int:
+        walks = [cost(edge, t)]
+        value: int | None = None
+        while True:
+            try:
+                wanted = next(walks[-1]) if value is None else walks[-1].send(value)
+            except StopIteration as done:
+                walks.pop()
+                if not walks:
+                    return int(done.value)
+                value = done.value
+                continue
+            walks.append(worst(wanted))
+            value = None
+
     result, run = 0, list[tuple[Edge, State]]()
     for source, edge, t in starts:
-        c = cost(edge, t)
+        c = bound(edge, t)
         if c > result or not run:
             result, run = c, [*graph.path_to(source), (edge, t)]
         if result == INFINITE:
             break
     if run:
-        at = run[-1][1]
+        at, passed = run[-1][1], {t for _, t in run}
         while not goal(run[-1][0]) and at in witness and witness[at] is not None:
             step = witness[at]
             assert step is not None
-            if step[1] in {t for _, t in run}:
-                run.append(step)
-                break
             run.append(step)
+            if step[1] in passed:
+                break
             at = step[1]
+            passed.add(at)
     return result, run
 
 
