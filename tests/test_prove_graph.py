@@ -100,6 +100,17 @@ def test_the_run_that_shows_an_unbounded_start_ends_where_it_fails() -> None:
     assert [(e.report, t.state) for e, t in run] == [("ERROR", "S2")]
 
 
+def test_the_bound_is_the_longest_way_to_the_goal_not_the_first_edge_listed() -> None:
+    """S1 can report DONE at once (listed first) or go on to S2 and report there: the bound
+    is the worse of the two, three cycles from the start, and the run shows that way."""
+    s1, s2 = state("S1"), state("S2")
+    graph = Graph(None, s1)  # type: ignore[arg-type]
+    graph.edges = {s1: [(edge(DONE), state("done")), (edge(), s2)], s2: [(edge(DONE), s1)]}
+    cycles, run = _bound(graph, s1)
+    assert cycles == 3
+    assert [(e.report, t.state) for e, t in run] == [(None, "S1"), (None, "S2"), (DONE, "S1")]
+
+
 def test_a_wait_longer_than_pythons_stack_is_bounded_not_an_internal_error() -> None:
     """`after: 6000 cycles` before a HALT makes its actuators safe is a chain of 6000 states
     (one per cycle waited): the bound walks it whole, 6001 cycles, as deep as it is, where a
