@@ -10,9 +10,9 @@ from __future__ import annotations
 import itertools
 from typing import Any
 
-from rcsgen.compiler.prove.adapter import DONE, EXECUTING
+from rcsgen.compiler.prove.adapter import DONE, EXECUTING, RuleView, Skeleton
 from rcsgen.compiler.prove.model import Edge, Graph, State
-from rcsgen.compiler.prove.properties import INFINITE, _sccs, _worst
+from rcsgen.compiler.prove.properties import INFINITE, _sccs, _worst, motion
 
 
 def state(name: str, subs: tuple[tuple[str | None, str, bool], ...] = ()) -> State:
@@ -123,3 +123,72 @@ def test_a_wait_longer_than_pythons_stack_is_bounded_not_an_internal_error() -> 
     assert cycles == 6001
     assert len(run) == 6001
     assert [t.state for _, t in run[-2:]] == ["S0+5999", "done"]
+
+
+def view(rid: str, sends: Any = (), actuators: Any = (), world_sets: Any = ()) -> RuleView:
+    """A rule made by hand: what it sends, the actuators it sets ((field, safe)), and the
+    world fields it sets."""
+    return RuleView(
+        rid, None, None, "", tuple(sends), None, None, tuple(actuators),  # type: ignore[arg-type]
+        world_sets=frozenset(world_sets),
+    )  # fmt: skip
+
+
+def skeleton(name: str, rules: dict[str, Any], subs: Any = (), operator: bool = False) -> Any:
+    """A controller made by hand: one state S0 per command, holding the command's rules."""
+    tables = {command: {"S0": list(found)} for command, found in rules.items()}
+    return Skeleton(
+        name, tuple(rules), tuple(subs), tables, [], frozenset(), {}, {}, {}, (), operator
+    )
+
+
+def test_a_motion_command_is_one_that_moves_something_itself_or_below() -> None:
+    """motion(): a command that sets an actuator unsafe, or sends one that does, is motion,
+    whatever else the same rule does after it (a stop sent after a move, an actuator set
+    unsafe before a stop is sent); one that only sets actuators safe and sends stopping
+    commands is not. A command that does neither is motion for the checks of W701 (idle:
+    it does nothing to stop) but not for the actuators' (idle False), where one that sets a
+    world output that is no actuator is. INIT and HALT never are; an operator's are all."""
+    sub = skeleton(
+        "sub",
+        {
+            "STOP": [view("STOP/S0/1", actuators=[("drive", True)])],
+            "MOVE": [view("MOVE/S0/1", actuators=[("drive", False)])],
+            "WAIT": [view("WAIT/S0/1")],
+            "NOTE": [view("NOTE/S0/1", world_sets=["note"])],
+        },
+    )
+    top = skeleton(
+        "top",
+        {
+            "GO": [view("GO/S0/1", sends=[("sub", "MOVE"), ("sub", "STOP")])],
+            "LAMP": [view("LAMP/S0/1", actuators=[("lamp", False)], sends=[("sub", "STOP")])],
+            "PARK": [view("PARK/S0/1", actuators=[("lamp", True)], sends=[("sub", "STOP")])],
+            "ASK": [view("ASK/S0/1", sends=[("op", "CHECK")])],
+            "INIT": [view("INIT/S0/1", actuators=[("lamp", False)])],
+            "HALT": [view("HALT/S0/1", sends=[("sub", "MOVE")])],
+        },
+        subs=("sub", "op"),
+    )
+    op = skeleton("op", {"CHECK": [view("CHECK/S0/1")]}, operator=True)
+    sk_of = {"top": top, "sub": sub, "op": op}
+    assert dict(motion(sk_of)) == {
+        ("top", "GO"): True,
+        ("top", "LAMP"): True,
+        ("top", "PARK"): False,
+        ("top", "ASK"): True,
+        ("sub", "STOP"): False,
+        ("sub", "MOVE"): True,
+        ("sub", "WAIT"): True,
+        ("sub", "NOTE"): True,
+        ("op", "CHECK"): True,
+    }
+    actuating = motion(sk_of, idle=False)
+    assert {key for key, moves in actuating.items() if not moves} == {
+        ("top", "PARK"),
+        ("sub", "STOP"),
+        ("sub", "WAIT"),
+    }
+    # INIT and HALT never move; a command not in the map is motion unless told otherwise
+    assert [actuating.get(("sub", c)) for c in ("INIT", "HALT", "SPIN")] == [False, False, True]
+    assert [actuating.get(("sub", "SPIN"), d) for d in (False, None)] == [False, True]
