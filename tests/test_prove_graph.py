@@ -12,7 +12,7 @@ from typing import Any
 
 from rcsgen.compiler.prove.adapter import DONE, EXECUTING, RuleView, Skeleton
 from rcsgen.compiler.prove.model import Edge, Graph, State
-from rcsgen.compiler.prove.properties import INFINITE, _sccs, _worst, motion
+from rcsgen.compiler.prove.properties import INFINITE, _fair, _sccs, _worst, motion
 
 
 def state(name: str, subs: tuple[tuple[str | None, str, bool], ...] = ()) -> State:
@@ -192,3 +192,24 @@ def test_a_motion_command_is_one_that_moves_something_itself_or_below() -> None:
     # INIT and HALT never move; a command not in the map is motion unless told otherwise
     assert [actuating.get(("sub", c)) for c in ("INIT", "HALT", "SPIN")] == [False, False, True]
     assert [actuating.get(("sub", "SPIN"), d) for d in (False, None)] == [False, True]
+
+
+def test_a_loop_is_fair_only_if_no_subordinate_owes_it_an_answer_and_no_time_runs_out() -> None:
+    """_fair: S1 waiting for sub's answer to MOVE, sending nothing, cannot go round for ever
+    (sub answers); resending MOVE each cycle it can, and so can a loop where sub is idle in
+    one of its states. A single timed state before its `after:` threshold cannot stay (the
+    rule fires); at the threshold, or across two states, it can."""
+    sk = skeleton("top", {"GO": []}, subs=("sub",))
+    busy = (("MOVE", EXECUTING, True),)
+    waiting = State("GO", "S1", EXECUTING, 0, busy)
+    resend = edge()._replace(sends=(("sub", "MOVE"),))
+    assert not _fair(sk, [waiting], [(waiting, edge(), waiting)])
+    assert _fair(sk, [waiting], [(waiting, resend, waiting)])
+    idle = State("GO", "S2", EXECUTING, 0, (("MOVE", DONE, True),))
+    assert _fair(sk, [waiting, idle], [(waiting, edge(), idle), (idle, edge(), waiting)])
+    timed = skeleton("top", {"GO": []})
+    timed.timers = {("GO", "S1"): (3, 5)}
+    early, due = State("GO", "S1", EXECUTING, 4, ()), State("GO", "S1", EXECUTING, 5, ())
+    assert not _fair(timed, [early], [(early, edge(), early)])
+    assert _fair(timed, [due], [(due, edge(), due)])
+    assert _fair(timed, [early, state("S2")], [(early, edge(), state("S2"))])
