@@ -250,3 +250,28 @@ def test_the_table_rule_of_a_cycle_is_told_from_its_every_cycle_rules() -> None:
     assert [is_every_cycle(r) for r in (every, table)] == [True, False]
     assert table_rules((every, table)) == [table]
     assert table_rules((every,)) == []
+
+
+def test_each_for_rule_fired_too_early_is_named_with_its_cycle(arm: Skeleton) -> None:
+    """timers.feasible (z3): a run that fires `for: 3 cycles` too early twice (in cycle 2,
+    and again in cycle 4 after a new MOVE) names both firings, in run order."""
+    pytest.importorskip("z3")
+    fire = (None, ("MOVE/S0/2",), "S1")
+    twice = run(("MOVE", (), "S0"), fire, ("MOVE", (), "S0"), fire)
+    assert timers.feasible(arm, twice) == (
+        False,
+        "impossible under its hold times (z3): MOVE/S0/2 (for: 3 cycles) in cycle 2, "
+        "MOVE/S0/2 (for: 3 cycles) in cycle 4 fires before its `when` can have held that long",
+    )
+
+
+def test_without_z3_a_run_with_a_for_rule_is_undecided_and_says_how_to_get_it(
+    arm: Skeleton, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(timers, "z3_or_none", lambda: None)
+    early = run(("MOVE", (), "S0"), (None, ("MOVE/S0/2",), "S1"))
+    assert timers.feasible(arm, early) == (
+        None,
+        "the hold times (`for:`) of counter-examples need z3: install rcsgen[prove]",
+    )
+    assert timers.feasible(arm, run(("MOVE", ("MOVE/S0/1",), "S0"))) == (True, "")
