@@ -190,6 +190,7 @@ def test_a_motion_command_is_one_that_moves_something_itself_or_below() -> None:
         ("sub", "WAIT"),
     }
     # INIT and HALT never move; a command not in the map is motion unless told otherwise
+    assert [actuating["sub", c] for c in ("INIT", "HALT", "SPIN")] == [False, False, True]
     assert [actuating.get(("sub", c)) for c in ("INIT", "HALT", "SPIN")] == [False, False, True]
     assert [actuating.get(("sub", "SPIN"), d) for d in (False, None)] == [False, True]
 

@@ -83,7 +83,11 @@ def _executing(graph: Graph) -> list[State]:
 
 
 class Motion(dict[tuple[str, str], bool]):
-    """(module, command) -> whether it is a motion command (INIT and HALT never are)."""
+    """(module, command) -> whether it is a motion command (INIT and HALT never are). A
+    command it does not know is motion (the safe guess): `moving[sub, command]`."""
+
+    def __missing__(self, key: tuple[str, str]) -> bool:
+        return key[1] not in ("INIT", "HALT")
 
     def get(self, key: tuple[str, str], default: bool | None = True) -> bool:  # type: ignore[override]
         if key[1] in ("INIT", "HALT"):
@@ -152,9 +156,9 @@ def outcomes(graph: Graph) -> dict[str, tuple[str, ...]]:
 # ---------------------------------------------------------------- no motion after ERROR
 
 
-def _motion(edge: Edge, moving: dict[tuple[str, str], bool]) -> list[str]:
+def _motion(edge: Edge, moving: Motion) -> list[str]:
     """What a cycle did that is motion: `sub.COMMAND` sent, `world.field` set unsafe."""
-    bad = [f"{sub}.{cmd}" for sub, cmd in edge.sends if moving.get((sub, cmd), True)]
+    bad = [f"{sub}.{cmd}" for sub, cmd in edge.sends if moving[sub, cmd]]
     return bad + [f"world.{name}" for name in edge.unsafe]
 
 
@@ -185,7 +189,7 @@ def _did(what: str) -> str:
     return f"sets {what}" if what.startswith("world.") else f"sends {what}"
 
 
-def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def motion_after_error(graph: Graph, moving: Motion) -> list[Finding]:
     """Once a subordinate answered ERROR, nothing but a stopping command goes to any
     subordinate and no actuator is set to a value that may not be safe, until a new command
     arrives from above."""
@@ -229,7 +233,7 @@ def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> lis
 # ---------------------------------------------------------------- latched stop
 
 
-def latched_stop(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def latched_stop(graph: Graph, moving: Motion) -> list[Finding]:
     """After HALT from above, no motion command and no unsafe actuator value until a new
     command arrives."""
     sk = graph.skeleton
@@ -707,7 +711,7 @@ def swallowed(graph: Graph, sub: str) -> list[tuple[str | None, str, list[tuple[
     return found
 
 
-def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def done_while_busy(graph: Graph, moving: Motion) -> list[Finding]:
     """A command reports DONE only once every motion command it sent has been answered:
     the supervisor waited for the echo (W708)."""
     sk = graph.skeleton
@@ -724,7 +728,7 @@ def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[F
                 for sub, (sent, view, fresh) in zip(sk.subs, s.subs, strict=True)
                 if edge.views[sk.subs.index(sub)] == EXECUTING
                 and sent is not None
-                and (moving.get((sub, sent), True) or ("sub_status", sub) in reads)
+                and (moving[sub, sent] or ("sub_status", sub) in reads)
                 and fresh
                 and (sub, sent) not in edge.sends
             ]
@@ -755,7 +759,7 @@ def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[F
 __all__ = ["INFINITE", "NOP", "Finding"]
 
 
-def _stale(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], bool]) -> str:
+def _stale(sk: Skeleton, s: State, edge: Edge, moving: Motion) -> str:
     """The subordinate whose stale DONE a rule went on on, when that is a slip: every DONE
     it read was stale (it waited for nothing new), or a stale one answers a motion command
     (a new motion was meant; a stale DONE of HALT or INIT only says it is stopped)."""
@@ -766,12 +770,12 @@ def _stale(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], boo
         return stale[0]
     for sub in stale:
         sent = s.subs[sk.subs.index(sub)][0]
-        if sent is not None and moving.get((sub, sent), True):
+        if sent is not None and moving[sub, sent]:
             return sub
     return ""
 
 
-def stale_done(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def stale_done(graph: Graph, moving: Motion) -> list[Finding]:
     """A table rule goes on on a subordinate's DONE only once per command sent: a DONE an
     earlier rule of this command already went on on, or one that answers a command sent
     before this command began, is stale (W707) - the wait did not wait (a send left out)."""
@@ -808,7 +812,7 @@ def stale_done(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Findin
     return findings
 
 
-def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], bool]) -> list[str]:
+def _going_on(sk: Skeleton, s: State, edge: Edge, moving: Motion) -> list[str]:
     """The motion commands a table rule that fired leaves running although its guard reads
     their subordinate's status: it went on before the echo (not to report ERROR, not on
     another subordinate's ERROR, not re-commanding it)."""
@@ -824,7 +828,7 @@ def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], 
         return []
     failing = edge.report == ERROR or ERROR in views
     rule = rule_view(sk, edge.rules[-1])
-    moves = any(moving.get(send, True) for send in edge.sends)
+    moves = any(moving[send] for send in edge.sends)
     return [
         f"{sub}.{sent}"
         for sub, sent in running
@@ -838,7 +842,7 @@ def _early(
     sent: str,
     resent: list[str],
     failing: bool,
-    moving: dict[tuple[str, str], bool],
+    moving: Motion,
     moves: bool,
 ) -> bool:
     """Whether going on while `sub` still runs `sent` (the rule read its status) is too
@@ -848,11 +852,11 @@ def _early(
     things (a preemption); by a motion command, or with motion sent anywhere (`moves`), on
     a status read, it is the next step taken before the echo of the last."""
     if failing:
-        return not resent and not moving.get((sub, sent), True)
+        return not resent and not moving[sub, sent]
     return not resent or moves
 
 
-def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def no_echo(graph: Graph, moving: Motion) -> list[Finding]:
     """A rule that reads a subordinate's status goes on (to another state) only once the
     subordinate has answered the motion command it runs: it waited for the echo (W708)."""
     sk = graph.skeleton
@@ -896,7 +900,7 @@ def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
 def _running(
     sk: Skeleton,
     s: State,
-    moving: dict[tuple[str, str], bool],
+    moving: Motion,
     loose: frozenset[tuple[str, str]] = frozenset(),
 ) -> frozenset[str]:
     """The subordinates running a motion command sent during the current command, or that
@@ -907,16 +911,11 @@ def _running(
         for sub, (sent, view, fresh) in zip(sk.subs, s.subs, strict=True)
         if fresh
         and sent is not None
-        and (
-            (view == EXECUTING and moving.get((sub, sent), True))
-            or (view == ERROR and (sub, sent) in loose)
-        )
+        and ((view == EXECUTING and moving[sub, sent]) or (view == ERROR and (sub, sent) in loose))
     )
 
 
-def loose_errors(
-    graph: Graph, moving: dict[tuple[str, str], bool], loose: frozenset[tuple[str, str]]
-) -> set[str]:
+def loose_errors(graph: Graph, moving: Motion, loose: frozenset[tuple[str, str]]) -> set[str]:
     """The commands the controller may end with ERROR while a subordinate still runs a
     motion command of it, or ended one with a loose ERROR and was not sent anything since:
     part of its contract - a supervisor must then withdraw it (HALT) after its ERROR."""
@@ -931,7 +930,7 @@ def loose_errors(
 
 def not_withdrawn(
     graph: Graph,
-    moving: dict[tuple[str, str], bool],
+    moving: Motion,
     loose: frozenset[tuple[str, str]] = frozenset(),
 ) -> list[Finding]:
     """After a subordinate's ERROR, every other subordinate still running a motion command
