@@ -214,3 +214,15 @@ def test_a_loop_is_fair_only_if_no_subordinate_owes_it_an_answer_and_no_time_run
     assert not _fair(timed, [early], [(early, edge(), early)])
     assert _fair(timed, [due], [(due, edge(), due)])
     assert _fair(timed, [early, state("S2")], [(early, edge(), state("S2"))])
+
+
+def test_an_edge_out_of_the_states_asked_about_is_passed_over_and_the_next_one_followed() -> None:
+    """_sccs walks only the states it is given: a's edge to `gone` (a state left out,
+    listed first) is passed over, its edge to b still followed, so a and b are one
+    component."""
+    a, b, gone = state("a"), state("b"), state("gone")
+    succ: dict[State, list[tuple[Edge, State]]] = {
+        a: [(edge(), gone), (edge(), b)],
+        b: [(edge(), a)],
+    }
+    assert [sorted(s.state for s in component) for component in _sccs(succ)] == [["a", "b"]]
