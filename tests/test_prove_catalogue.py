@@ -1,12 +1,12 @@
 """`rcsgen prove` word for word on small systems made for one finding each (W702 a command
 that goes round for ever, W706 motion after HALT, W707 a stale DONE believed (after a wait
 left, beside a new DONE), W708 going on before the echo, W704 a subordinate run before its
-supervisor (the second of two too) or never sent HALT, W701 an ERROR reported without withdrawing another subordinate, W303 prove's
-acknowledgements that match nothing) and for the runtime's
-reaction to a lost process (halt_all and `on_lost: continue`): the findings located at
-their rules, the summary (states, execution order, HALT and ERROR bounds, the world
-conditions a command finishes under) and each counter-example cycle by cycle. The model
-alone decides (--no-replay): a second each. test_prove.py reads the same systems through
+supervisor (the second of two too) or never sent HALT, W701 an ERROR reported without
+withdrawing another subordinate, W303 prove's acknowledgements that match nothing) and for
+the runtime's reaction to a lost process (halt_all and `on_lost: continue`): the findings
+located at their rules, the summary (states, execution order, HALT and ERROR bounds, the
+world conditions a command finishes under) and each counter-example cycle by cycle. The
+model alone decides (--no-replay): a second each. test_prove.py reads the same systems through
 the API and replays them."""
 
 from __future__ import annotations
