@@ -32,7 +32,7 @@ from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove.adapter import Skeleton, skeleton
 from rcsgen.compiler.prove.lost import RuntimeReaction
 from rcsgen.compiler.prove.model import Graph, Model, explore
-from rcsgen.compiler.prove.numbers import witness
+from rcsgen.compiler.prove.numbers import numeric, witness
 from rcsgen.compiler.prove.system import _shortest_form
 from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS, Str, enum_of
 
@@ -339,3 +339,18 @@ def test_each_value_has_its_types_sort_whatever_way_its_number_is_written(arm: S
         "world e": "Int",
     }
     assert str(sorts["float 2"]) == "2" and str(sorts["float 2.5"]) == "5/2"
+
+
+def test_the_cycle_that_brings_a_command_constrains_its_parameters(dial: Graph) -> None:
+    """numbers.witness: SET's first cycle (S0, EXECUTING from the new command) fires rule 1
+    only with `on`; S1's rule 2 then needs `not on`: no values make that run, whereas rule 3
+    (`n != 3` and the like) is possible. A run that reads no number is not asked about."""
+    graph = dial
+    s1 = next(s for s in graph.edges if s.command == "SET" and s.state == "S1")
+    by_rule = {e.rules[-1]: (e, t) for e, t in graph.edges[s1] if e.rules and e.new is None}
+    assert [e.rules for e, _ in graph.path_to(s1)] == [("SET/S0/1",)]
+    assert witness(z3, graph, [*graph.path_to(s1), by_rule["SET/S1/2"]]) is None
+    assert witness(z3, graph, [*graph.path_to(s1), by_rule["SET/S1/3"]]) is not None
+    assert numeric(graph.skeleton, graph.path_to(s1)) is True
+    init = next((e, t) for e, t in graph.edges[graph.initial] if e.new == "INIT")
+    assert numeric(graph.skeleton, [init]) is False
