@@ -275,3 +275,24 @@ def test_without_z3_a_run_with_a_for_rule_is_undecided_and_says_how_to_get_it(
         "the hold times (`for:`) of counter-examples need z3: install rcsgen[prove]",
     )
     assert timers.feasible(arm, run(("MOVE", ("MOVE/S0/1",), "S0"))) == (True, "")
+
+
+def test_time_in_a_timed_state_counts_up_to_its_after_threshold_and_the_rule_fires_there(
+    tmp_path: Path,
+) -> None:
+    """The model counts arm's cycles in MOVE S1 (`after: 5 cycles`) as the state's ticks, up
+    to 5 and no further; S1's rule fires only at 5; untimed S0 keeps no count."""
+    from rcsgen.compiler.prove.lost import RuntimeReaction
+    from rcsgen.compiler.prove.model import Model, explore
+
+    (tmp_path / "system.yaml").write_text(SYSTEM)
+    (tmp_path / "arm.yaml").write_text(ARM)
+    system = compile_paths([tmp_path]).systems[0]
+    sk = skeleton(system, system.controllers[0], frozenset({"drive", "lamp"}))
+    graph = explore(Model(sk, {}, RuntimeReaction(system)))
+    ticks = {(s.state, s.ticks) for s in graph.edges if s.command == "MOVE"}
+    assert sorted(ticks) == [("NOP", 0), ("S0", 0), *(("S1", n) for n in range(6))]
+    fired = {
+        s.ticks for s, edges in graph.edges.items() for e, _ in edges if "MOVE/S1/1" in e.rules
+    }
+    assert fired == {5}
