@@ -15,7 +15,7 @@ from rcsgen.compiler.expressions.nodes import Ref
 from rcsgen.compiler.expressions.printer import to_python
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove import timers
-from rcsgen.compiler.prove.adapter import EXECUTING, RuleView, Skeleton, skeleton
+from rcsgen.compiler.prove.adapter import EXECUTING, Choice, RuleView, Skeleton, skeleton
 from rcsgen.compiler.prove.model import Edge, State
 
 SYSTEM = """\
@@ -296,3 +296,26 @@ def test_time_in_a_timed_state_counts_up_to_its_after_threshold_and_the_rule_fir
         s.ticks for s, edges in graph.edges.items() for e, _ in edges if "MOVE/S1/1" in e.rules
     }
     assert fired == {5}
+
+
+def test_which_rule_can_fire_is_decided_by_the_atoms_fixed(arm: Skeleton) -> None:
+    """Skeleton.choices: S1's `after: 5 cycles` rule fires at 5 cycles, certainly, and no
+    rule fires at 3 (certainly); in S0 each rule can fire and so can none, each decided
+    with the values that make it so (what a replay scripts); a rule without a guard always
+    fires."""
+    from rcsgen.compiler.analysis.tables import Atom
+
+    s1 = arm.tables["MOVE"]["S1"]
+    at = [arm.choices(s1, {("time", "ticks"): n}) for n in (3, 5)]
+    assert [[(c.rule, c.certain, c.valuation) for c in cs] for cs in at] == [
+        [(None, True, ())],
+        [(0, True, ())],
+    ]
+    s0 = arm.choices(arm.tables["MOVE"]["S0"], {("time", "ticks"): 0})
+    pos, held = (Atom.WORLD, "pos"), (Atom.HELD, "held_move_s0_2")
+    assert [(c.rule, c.certain, dict(c.valuation)) for c in s0] == [
+        (0, True, {pos: 4.5}),
+        (1, True, {pos: -4.5, held: 4}),
+        (None, True, {pos: -4.5, held: 3}),
+    ]
+    assert arm.choices(arm.tables["HALT"]["S0"], {}) == (Choice(0, True, ()),)
