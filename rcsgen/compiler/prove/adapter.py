@@ -86,7 +86,7 @@ class Skeleton:
     # (command, state) -> the time thresholds (cycles) its rules compare `time` with
     timers: dict[tuple[str, str], tuple[int, ...]]
     actuators: tuple[str, ...]  # actuator fields it writes
-    operator: bool = False
+    operator: bool  # an operator module (a person): every command of its is motion
     tasks_outcomes: dict[str, tuple[str, ...]] = field(default_factory=dict)
     # each local's type and initial value (an enum's as its index), for `numbers.py`
     locals_init: dict[str, tuple[Any, Any]] = field(default_factory=dict)
@@ -359,7 +359,7 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
         state_spans,
         timers,
         writes,
-        operator=c.kind == "operator",
+        operator=c.is_operator,
         locals_init={v.name: (v.type, _initial(v.type, v.initial)) for v in c.locals},
         constants=dict(builder.constants),
     )
