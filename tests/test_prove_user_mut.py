@@ -43,26 +43,22 @@ def test_each_atom_reads_its_part_of_the_cycle() -> None:
     t = State("GO", "S1", EXECUTING, 0, (("MOVE", EXECUTING, True),))
     idle = State(None, "NOP", "NOT_READY", 0, ((None, "NOT_READY", False),))
     unsafe = frozenset({"drive"})
-    cases = [
-        (PropKind.STATE, "top", "S1"),
-        (PropKind.STATE, "top", "S0"),
-        (PropKind.COMMAND, "top", "GO"),
-        (PropKind.COMMAND, "top", "NONE"),
-        (PropKind.STATUS, "top", EXECUTING),
-        (PropKind.STATUS, "top", DONE),
-        (PropKind.SENT, "sub", "MOVE"),
-        (PropKind.SENT, "sub", "HALT"),
-        (PropKind.WRITES, "", "n"),
-        (PropKind.WRITES, "", "world.drive"),
-        (PropKind.SAFE, "", "world.lamp"),
-        (PropKind.SAFE, "", "world.drive"),
-        (PropKind.SUB_STATUS, "sub", EXECUTING),
-        (PropKind.SUB_STATUS, "sub", DONE),
-        (PropKind.SUB_COMMAND, "sub", "MOVE"),
-        (PropKind.SUB_COMMAND, "sub", "NONE"),
-    ]
-    read = [user.compiled(sk, atom(*case))(e, t, unsafe) for case in cases]
-    assert read == [True, False] * 8
+    # each kind: (the module, a value the cycle makes it, one it does not)
+    cases = {
+        PropKind.STATE: ("top", "S1", "S0"),
+        PropKind.COMMAND: ("top", "GO", "NONE"),
+        PropKind.STATUS: ("top", EXECUTING, DONE),
+        PropKind.SENT: ("sub", "MOVE", "HALT"),
+        PropKind.WRITES: ("", "n", "world.drive"),
+        PropKind.SAFE: ("", "world.lamp", "world.drive"),
+        PropKind.SUB_STATUS: ("sub", EXECUTING, DONE),
+        PropKind.SUB_COMMAND: ("sub", "MOVE", "NONE"),
+    }
+    read = {
+        kind: [user.compiled(sk, atom(kind, m, v))(e, t, unsafe) for v in values]
+        for kind, (m, *values) in cases.items()
+    }
+    assert read == {kind: [True, False] for kind in PropKind}
     before = edge()._replace(views=("NOT_READY",))
     assert [
         user.compiled(sk, atom(kind, m, "NONE"))(before, idle, frozenset())
