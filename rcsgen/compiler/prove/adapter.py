@@ -387,19 +387,6 @@ def placement(system: ir.IRSystem) -> dict[str, tuple[str, int]]:
     return found
 
 
-def stand_ins(system: ir.IRSystem) -> dict[str, str]:
-    """controller -> its stand-in, if it has one."""
-    return {c.buffers: c.name for c in system.controllers if c.buffers != c.name}
-
-
-def supervisor_of(system: ir.IRSystem) -> dict[str, str]:
-    return {c.name: c.supervisor for c in system.controllers if c.supervisor}
-
-
-def is_builtin(command: str) -> bool:
-    return command in BUILTIN_COMMANDS
-
-
 def operator_outcomes(c: ir.IRController) -> dict[str, tuple[str, ...]]:
     """An operator module's tasks: a person answers DONE or ERROR; INIT/HALT withdraw: DONE."""
     return {
