@@ -54,3 +54,19 @@ def test_a_hop_is_a_cycle_per_process_crossed_and_one_more_per_host() -> None:
     assert hop(place, "arm", "sup", {}) == 1
     assert [hop(place, "sup", r, hosts) for r in ("arm", "pln", "exe")] == [0, 1, 2]
     assert hop(place, "exe", "sup", hosts) == 2
+
+
+def test_each_module_is_placed_in_its_process_at_its_place_in_the_lockstep_order() -> None:
+    """adapter.placement, what hop reads: (process, position), counted from 0 across the
+    processes in the order system.yaml lists them."""
+    from rcsgen.compiler.prove.adapter import placement
+
+    processes = [
+        SimpleNamespace(name="a", modules=["top", "sub"]),
+        SimpleNamespace(name="b", modules=["arm"]),
+    ]
+    assert placement(SimpleNamespace(processes=processes)) == {  # type: ignore[arg-type]
+        "top": ("a", 0),
+        "sub": ("a", 1),
+        "arm": ("b", 2),
+    }
