@@ -373,6 +373,19 @@ CASES = {
         TOP.replace("[sub]", "[sub, sub2]") + WAITS,
         TINY_SUB.replace("controller: sub", "controller: sub2").replace("drive", "drive2"),
     ),
+    # top's first subordinate runs after it in its process, its second before it: W704 for
+    # the second
+    "first_sub_after_top": (
+        TINY_SYSTEM.replace(
+            "  p:\n    modules: [top, sub]",
+            "  p:\n    modules: [sub2, top, sub]",
+        ).replace(
+            "processes:", "  drive2: {type: float, initial: 0.0, actuator: true}\nprocesses:"
+        ),
+        TINY_SUB,
+        TOP.replace("[sub]", "[sub, sub2]") + WAITS,
+        TINY_SUB.replace("controller: sub", "controller: sub2").replace("drive", "drive2"),
+    ),
 }
 EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"
 
