@@ -89,6 +89,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_prove_encode",
             "test_prove_text",
             "test_prove_graph",
+            "test_prove_user_mut",
             "test_reference",
             "test_reference_current",
             "test_replay_scenario",

@@ -3,6 +3,7 @@ replayed in the generated code (rcsgen/compiler/prove/, rcsgen/tools/replay.py).
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -272,7 +273,30 @@ def test_the_handshake_invariant_is_proven_by_induction():
     assert proven is True, said
     # without numbering a send after an operator's command, an old echo can be believed
     broken, why = handshake.prove_handshake(renumber=False)
-    assert broken is False and why
+    assert broken is False
+    intro = "a transition breaks the invariant: "
+    assert why.startswith(intro)
+    # the counter-example names each number before and after: a send numbered from the
+    # supervisor's own count, below the buffer an operator's override raised, so the old
+    # echo is ahead of the new number
+    v = {k: int(n) for k, n in re.findall(r"(\w+) = (-?\d+)", why.removeprefix(intro))}
+    names = ("buffer", "written", "sent", "echo", "status")
+    assert set(v) == {*names, *(name + "2" for name in names)}
+    assert v["echo"] <= v["buffer"] and v["written"] == v["sent"] <= v["buffer"]
+    assert v["sent2"] == v["buffer2"] == v["written2"] == v["sent"] + 1 < v["buffer"]
+    assert v["echo2"] == v["echo"] > v["buffer2"]
+
+
+def test_without_z3_the_handshake_is_undecided_and_says_how_to_get_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from rcsgen.compiler.prove import handshake
+
+    monkeypatch.setattr(handshake, "z3_or_none", lambda: None)
+    assert handshake.prove_handshake() == (
+        None,
+        "the handshake invariant needs z3: install rcsgen[prove] (z3-solver)",
+    )
 
 
 # ---------------------------------------------------------------- small systems

@@ -15,7 +15,7 @@ from rcsgen.compiler.expressions.nodes import Ref
 from rcsgen.compiler.expressions.printer import to_python
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove import timers
-from rcsgen.compiler.prove.adapter import EXECUTING, RuleView, Skeleton, skeleton
+from rcsgen.compiler.prove.adapter import EXECUTING, Choice, RuleView, Skeleton, skeleton
 from rcsgen.compiler.prove.model import Edge, State
 
 SYSTEM = """\
@@ -250,3 +250,72 @@ def test_the_table_rule_of_a_cycle_is_told_from_its_every_cycle_rules() -> None:
     assert [is_every_cycle(r) for r in (every, table)] == [True, False]
     assert table_rules((every, table)) == [table]
     assert table_rules((every,)) == []
+
+
+def test_each_for_rule_fired_too_early_is_named_with_its_cycle(arm: Skeleton) -> None:
+    """timers.feasible (z3): a run that fires `for: 3 cycles` too early twice (in cycle 2,
+    and again in cycle 4 after a new MOVE) names both firings, in run order."""
+    pytest.importorskip("z3")
+    fire = (None, ("MOVE/S0/2",), "S1")
+    twice = run(("MOVE", (), "S0"), fire, ("MOVE", (), "S0"), fire)
+    assert timers.feasible(arm, twice) == (
+        False,
+        "impossible under its hold times (z3): MOVE/S0/2 (for: 3 cycles) in cycle 2, "
+        "MOVE/S0/2 (for: 3 cycles) in cycle 4 fires before its `when` can have held that long",
+    )
+
+
+def test_without_z3_a_run_with_a_for_rule_is_undecided_and_says_how_to_get_it(
+    arm: Skeleton, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(timers, "z3_or_none", lambda: None)
+    early = run(("MOVE", (), "S0"), (None, ("MOVE/S0/2",), "S1"))
+    assert timers.feasible(arm, early) == (
+        None,
+        "the hold times (`for:`) of counter-examples need z3: install rcsgen[prove]",
+    )
+    assert timers.feasible(arm, run(("MOVE", ("MOVE/S0/1",), "S0"))) == (True, "")
+
+
+def test_time_in_a_timed_state_counts_up_to_its_after_threshold_and_the_rule_fires_there(
+    tmp_path: Path,
+) -> None:
+    """The model counts arm's cycles in MOVE S1 (`after: 5 cycles`) as the state's ticks, up
+    to 5 and no further; S1's rule fires only at 5; untimed S0 keeps no count."""
+    from rcsgen.compiler.prove.lost import RuntimeReaction
+    from rcsgen.compiler.prove.model import Model, explore
+
+    (tmp_path / "system.yaml").write_text(SYSTEM)
+    (tmp_path / "arm.yaml").write_text(ARM)
+    system = compile_paths([tmp_path]).systems[0]
+    sk = skeleton(system, system.controllers[0], frozenset({"drive", "lamp"}))
+    graph = explore(Model(sk, {}, RuntimeReaction(system)))
+    ticks = {(s.state, s.ticks) for s in graph.edges if s.command == "MOVE"}
+    assert sorted(ticks) == [("NOP", 0), ("S0", 0), *(("S1", n) for n in range(6))]
+    fired = {
+        s.ticks for s, edges in graph.edges.items() for e, _ in edges if "MOVE/S1/1" in e.rules
+    }
+    assert fired == {5}
+
+
+def test_which_rule_can_fire_is_decided_by_the_atoms_fixed(arm: Skeleton) -> None:
+    """Skeleton.choices: S1's `after: 5 cycles` rule fires at 5 cycles, certainly, and no
+    rule fires at 3 (certainly); in S0 each rule can fire and so can none, each decided
+    with the values that make it so (what a replay scripts); a rule without a guard always
+    fires."""
+    from rcsgen.compiler.analysis.tables import Atom
+
+    s1 = arm.tables["MOVE"]["S1"]
+    at = [arm.choices(s1, {("time", "ticks"): n}) for n in (3, 5)]
+    assert [[(c.rule, c.certain, c.valuation) for c in cs] for cs in at] == [
+        [(None, True, ())],
+        [(0, True, ())],
+    ]
+    s0 = arm.choices(arm.tables["MOVE"]["S0"], {("time", "ticks"): 0})
+    pos, held = (Atom.WORLD, "pos"), (Atom.HELD, "held_move_s0_2")
+    assert [(c.rule, c.certain, dict(c.valuation)) for c in s0] == [
+        (0, True, {pos: 4.5}),
+        (1, True, {pos: -4.5, held: 4}),
+        (None, True, {pos: -4.5, held: 3}),
+    ]
+    assert arm.choices(arm.tables["HALT"]["S0"], {}) == (Choice(0, True, ()),)

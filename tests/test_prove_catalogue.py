@@ -1,12 +1,12 @@
 """`rcsgen prove` word for word on small systems made for one finding each (W702 a command
 that goes round for ever, W706 motion after HALT, W707 a stale DONE believed (after a wait
 left, beside a new DONE), W708 going on before the echo, W704 a subordinate run before its
-supervisor, W701 an ERROR reported without withdrawing another subordinate, W303 prove's
-acknowledgements that match nothing) and for the runtime's
-reaction to a lost process (halt_all and `on_lost: continue`): the findings located at
-their rules, the summary (states, execution order, HALT and ERROR bounds, the world
-conditions a command finishes under) and each counter-example cycle by cycle. The model
-alone decides (--no-replay): a second each. test_prove.py reads the same systems through
+supervisor (the second of two too) or never sent HALT, W701 an ERROR reported without
+withdrawing another subordinate, W303 prove's acknowledgements that match nothing) and for
+the runtime's reaction to a lost process (halt_all and `on_lost: continue`): the findings
+located at their rules, the summary (states, execution order, HALT and ERROR bounds, the
+world conditions a command finishes under) and each counter-example cycle by cycle. The
+model alone decides (--no-replay): a second each. test_prove.py reads the same systems through
 the API and replays them."""
 
 from __future__ import annotations
@@ -353,6 +353,38 @@ CASES = {
         FAILING_SUB,
         NOT_WITHDRAWN,
         FAILING_SUB.replace("controller: sub", "controller: sub2"),
+    ),
+    # top's HALT reports DONE without sending sub HALT: W704 at top's HALT
+    "halt_forgets_sub": (
+        TINY_SYSTEM,
+        TINY_SUB,
+        TOP + WAITS + "  HALT:\n    states:\n      S0:\n        - do: [report: DONE]\n",
+    ),
+    # top's first subordinate runs in another process, its second before it in top's own:
+    # W704 for the second
+    "second_sub_before_top": (
+        TINY_SYSTEM.replace(
+            "  p:\n    modules: [top, sub]",
+            "  a:\n    modules: [sub]\n  p:\n    modules: [sub2, top]",
+        ).replace(
+            "processes:", "  drive2: {type: float, initial: 0.0, actuator: true}\nprocesses:"
+        ),
+        TINY_SUB,
+        TOP.replace("[sub]", "[sub, sub2]") + WAITS,
+        TINY_SUB.replace("controller: sub", "controller: sub2").replace("drive", "drive2"),
+    ),
+    # top's first subordinate runs after it in its process, its second before it: W704 for
+    # the second
+    "first_sub_after_top": (
+        TINY_SYSTEM.replace(
+            "  p:\n    modules: [top, sub]",
+            "  p:\n    modules: [sub2, top, sub]",
+        ).replace(
+            "processes:", "  drive2: {type: float, initial: 0.0, actuator: true}\nprocesses:"
+        ),
+        TINY_SUB,
+        TOP.replace("[sub]", "[sub, sub2]") + WAITS,
+        TINY_SUB.replace("controller: sub", "controller: sub2").replace("drive", "drive2"),
     ),
 }
 EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"

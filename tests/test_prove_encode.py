@@ -32,9 +32,9 @@ from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove.adapter import Skeleton, skeleton
 from rcsgen.compiler.prove.lost import RuntimeReaction
 from rcsgen.compiler.prove.model import Graph, Model, explore
-from rcsgen.compiler.prove.numbers import witness
+from rcsgen.compiler.prove.numbers import numeric, witness
 from rcsgen.compiler.prove.system import _shortest_form
-from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS
+from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS, Str, enum_of
 
 z3 = pytest.importorskip("z3")
 
@@ -308,3 +308,49 @@ def test_a_cycle_with_no_rule_to_try_is_certain(dial: Graph) -> None:
     idle = [e for s, edges in dial.edges.items() for e, _ in edges if s.state == "NOP"]
     assert len([e for e in idle if not e.rules]) >= 3
     assert all(e.certain for e in idle if not e.rules)
+
+
+def test_each_value_has_its_types_sort_whatever_way_its_number_is_written(arm: Skeleton) -> None:  # noqa: F811
+    """Encoder: a literal or a constant of a float type is a z3 real even written as a whole
+    number (`2`), one of an int type an integer; a value read fresh (a world field) has its
+    type's sort too (an enumeration's is its index, an integer; a str a string)."""
+    enc, world = encoder(arm), {}
+    sorts = {
+        "float 2": enc.value(Const(FLOAT, 2), {}, world),
+        "float 2.5": enc.value(Const(FLOAT, 2.5), {}, world),
+        "int 3": enc.value(c(3), {}, world),
+        "bool": enc.value(c(True), {}, world),
+        "str": enc.value(Const(Str(), "b"), {}, world),
+        "LIMIT": enc.value(Ref(FLOAT, RefKind.CONST, "LIMIT"), {}, world),
+    }
+    for kind, name in ((FLOAT, "x"), (INT, "n"), (BOOL, "b"), (Str(), "s"), (enum_of("AB"), "e")):
+        sorts[f"world {name}"] = enc.value(Ref(kind, RefKind.WORLD, name), {}, world)
+    assert {name: str(term.sort()) for name, term in sorts.items()} == {
+        "float 2": "Real",
+        "float 2.5": "Real",
+        "int 3": "Int",
+        "bool": "Bool",
+        "str": "String",
+        "LIMIT": "Real",
+        "world x": "Real",
+        "world n": "Int",
+        "world b": "Bool",
+        "world s": "String",
+        "world e": "Int",
+    }
+    assert str(sorts["float 2"]) == "2" and str(sorts["float 2.5"]) == "5/2"
+
+
+def test_the_cycle_that_brings_a_command_constrains_its_parameters(dial: Graph) -> None:
+    """numbers.witness: SET's first cycle (S0, EXECUTING from the new command) fires rule 1
+    only with `on`; S1's rule 2 then needs `not on`: no values make that run, whereas rule 3
+    (`n != 3` and the like) is possible. A run that reads no number is not asked about."""
+    graph = dial
+    s1 = next(s for s in graph.edges if s.command == "SET" and s.state == "S1")
+    by_rule = {e.rules[-1]: (e, t) for e, t in graph.edges[s1] if e.rules and e.new is None}
+    assert [e.rules for e, _ in graph.path_to(s1)] == [("SET/S0/1",)]
+    assert witness(z3, graph, [*graph.path_to(s1), by_rule["SET/S1/2"]]) is None
+    assert witness(z3, graph, [*graph.path_to(s1), by_rule["SET/S1/3"]]) is not None
+    assert numeric(graph.skeleton, graph.path_to(s1)) is True
+    init = next((e, t) for e, t in graph.edges[graph.initial] if e.new == "INIT")
+    assert numeric(graph.skeleton, [init]) is False

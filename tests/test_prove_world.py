@@ -156,6 +156,17 @@ NOT_A_DEADLOCK = {
     },
     # a simulator is the world itself: what it writes changes whatever the controllers do
     "a_simulator_writes_it": {"system": SYSTEM + "simulators: [sub]\n"},
+    # the wait also reads a local, which may change without the world: not decided as one
+    "the_wait_also_reads_a_local": {
+        "top": edited(
+            TOP,
+            ("commands:\n", "locals:\n  n: {type: int, initial: 0, doc: A count.}\ncommands:\n"),
+            (
+                "sub.status == DONE and world.ready\n",
+                "sub.status == DONE and (world.ready or n > 3)\n",
+            ),
+        )
+    },
     # top writes it itself (another command): not its subordinates' alone
     "the_supervisor_writes_it_too": {
         "top": edited(

@@ -86,7 +86,7 @@ class Skeleton:
     # (command, state) -> the time thresholds (cycles) its rules compare `time` with
     timers: dict[tuple[str, str], tuple[int, ...]]
     actuators: tuple[str, ...]  # actuator fields it writes
-    operator: bool = False
+    operator: bool  # an operator module (a person): every command of its is motion
     tasks_outcomes: dict[str, tuple[str, ...]] = field(default_factory=dict)
     # each local's type and initial value (an enum's as its index), for `numbers.py`
     locals_init: dict[str, tuple[Any, Any]] = field(default_factory=dict)
@@ -359,7 +359,7 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
         state_spans,
         timers,
         writes,
-        operator=c.kind == "operator",
+        operator=c.is_operator,
         locals_init={v.name: (v.type, _initial(v.type, v.initial)) for v in c.locals},
         constants=dict(builder.constants),
     )
@@ -385,19 +385,6 @@ def placement(system: ir.IRSystem) -> dict[str, tuple[str, int]]:
             found[module] = (process.name, at)
             at += 1
     return found
-
-
-def stand_ins(system: ir.IRSystem) -> dict[str, str]:
-    """controller -> its stand-in, if it has one."""
-    return {c.buffers: c.name for c in system.controllers if c.buffers != c.name}
-
-
-def supervisor_of(system: ir.IRSystem) -> dict[str, str]:
-    return {c.name: c.supervisor for c in system.controllers if c.supervisor}
-
-
-def is_builtin(command: str) -> bool:
-    return command in BUILTIN_COMMANDS
 
 
 def operator_outcomes(c: ir.IRController) -> dict[str, tuple[str, ...]]:

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from itertools import product
 from typing import Any, NamedTuple
 
+from ...runtime.contract import NO_COMMAND_NAME
 from ..analysis.solver import Key
 from .adapter import DONE, ERROR, EXECUTING, NOT_READY, Choice, RuleView, Skeleton
 from .lost import RuntimeReaction
@@ -339,7 +340,7 @@ class Model:
         fixed: dict[Key, Any] = {("time", "ticks"): ticks}
         for sub, (sent, view, _) in zip(self.sk.subs, subs, strict=True):
             fixed[("status", sub)] = view
-            fixed[("command", sub)] = sent if sent is not None else "NONE"
+            fixed[("command", sub)] = sent if sent is not None else NO_COMMAND_NAME
         return fixed
 
     def _step(

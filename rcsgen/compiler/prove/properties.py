@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
 
 from ..diagnostics import Span, counted
@@ -83,7 +83,11 @@ def _executing(graph: Graph) -> list[State]:
 
 
 class Motion(dict[tuple[str, str], bool]):
-    """(module, command) -> whether it is a motion command (INIT and HALT never are)."""
+    """(module, command) -> whether it is a motion command (INIT and HALT never are). A
+    command it does not know is motion (the safe guess): `moving[sub, command]`."""
+
+    def __missing__(self, key: tuple[str, str]) -> bool:
+        return key[1] not in ("INIT", "HALT")
 
     def get(self, key: tuple[str, str], default: bool | None = True) -> bool:  # type: ignore[override]
         if key[1] in ("INIT", "HALT"):
@@ -152,9 +156,9 @@ def outcomes(graph: Graph) -> dict[str, tuple[str, ...]]:
 # ---------------------------------------------------------------- no motion after ERROR
 
 
-def _motion(edge: Edge, moving: dict[tuple[str, str], bool]) -> list[str]:
+def _motion(edge: Edge, moving: Motion) -> list[str]:
     """What a cycle did that is motion: `sub.COMMAND` sent, `world.field` set unsafe."""
-    bad = [f"{sub}.{cmd}" for sub, cmd in edge.sends if moving.get((sub, cmd), True)]
+    bad = [f"{sub}.{cmd}" for sub, cmd in edge.sends if moving[sub, cmd]]
     return bad + [f"world.{name}" for name in edge.unsafe]
 
 
@@ -185,7 +189,7 @@ def _did(what: str) -> str:
     return f"sets {what}" if what.startswith("world.") else f"sends {what}"
 
 
-def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def motion_after_error(graph: Graph, moving: Motion) -> list[Finding]:
     """Once a subordinate answered ERROR, nothing but a stopping command goes to any
     subordinate and no actuator is set to a value that may not be safe, until a new command
     arrives from above."""
@@ -229,7 +233,7 @@ def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> lis
 # ---------------------------------------------------------------- latched stop
 
 
-def latched_stop(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def latched_stop(graph: Graph, moving: Motion) -> list[Finding]:
     """After HALT from above, no motion command and no unsafe actuator value until a new
     command arrives."""
     sk = graph.skeleton
@@ -547,19 +551,18 @@ def _worst(
     on_path: set[State] = set()
     witness: dict[State, tuple[Edge, State] | None] = {}
 
-    def cost(edge: Edge, t: State) -> int:
+    # A depth-first walk without recursion: a path can be as long as a wait (`after: 6000
+    # cycles` is 6000 states), deeper than Python's stack. Each state's walk is a generator
+    # that yields the next state whose bound it needs; `bound` runs them on a stack of its own.
+    def cost(edge: Edge, t: State) -> Generator[State, int, int]:
         if goal(edge):
             return 1
         if stop(edge) or t.status != EXECUTING:
             return INFINITE
-        inner = worst(t)
+        inner = memo[t] if t in memo else INFINITE if t in on_path else (yield t)
         return INFINITE if inner == INFINITE else inner + 1
 
-    def worst(s: State) -> int:
-        if s in memo:
-            return memo[s]
-        if s in on_path:
-            return INFINITE
+    def worst(s: State) -> Generator[State, int, int]:
         on_path.add(s)
         best, chosen = 0, None
         for edge, t in graph.edges.get(s, []):
@@ -567,7 +570,7 @@ def _worst(
                 continue
             if t == s and any(v == EXECUTING and f for _, v, f in s.subs):
                 continue  # waiting for a subordinate's answer: its time, not this table's
-            c = cost(edge, t)
+            c = yield from cost(edge, t)
             if c > best or chosen is None:
                 best, chosen = c, (edge, t)
             if best == INFINITE:
@@ -577,24 +580,38 @@ def _worst(
         witness[s] = chosen
         return memo[s]
 
-    sys.setrecursionlimit(max(10_000, sys.getrecursionlimit()))
+    def bound(edge: Edge, t: State) -> int:
+        walks = [cost(edge, t)]
+        value: int | None = None
+        while True:
+            try:
+                wanted = next(walks[-1]) if value is None else walks[-1].send(value)
+            except StopIteration as done:
+                walks.pop()
+                if not walks:
+                    return int(done.value)
+                value = done.value
+                continue
+            walks.append(worst(wanted))
+            value = None
+
     result, run = 0, list[tuple[Edge, State]]()
     for source, edge, t in starts:
-        c = cost(edge, t)
+        c = bound(edge, t)
         if c > result or not run:
             result, run = c, [*graph.path_to(source), (edge, t)]
         if result == INFINITE:
             break
     if run:
-        at = run[-1][1]
+        at, passed = run[-1][1], {t for _, t in run}
         while not goal(run[-1][0]) and at in witness and witness[at] is not None:
             step = witness[at]
             assert step is not None
-            if step[1] in {t for _, t in run}:
-                run.append(step)
-                break
             run.append(step)
+            if step[1] in passed:
+                break
             at = step[1]
+            passed.add(at)
     return result, run
 
 
@@ -694,7 +711,7 @@ def swallowed(graph: Graph, sub: str) -> list[tuple[str | None, str, list[tuple[
     return found
 
 
-def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def done_while_busy(graph: Graph, moving: Motion) -> list[Finding]:
     """A command reports DONE only once every motion command it sent has been answered:
     the supervisor waited for the echo (W708)."""
     sk = graph.skeleton
@@ -711,7 +728,7 @@ def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[F
                 for sub, (sent, view, fresh) in zip(sk.subs, s.subs, strict=True)
                 if edge.views[sk.subs.index(sub)] == EXECUTING
                 and sent is not None
-                and (moving.get((sub, sent), True) or ("sub_status", sub) in reads)
+                and (moving[sub, sent] or ("sub_status", sub) in reads)
                 and fresh
                 and (sub, sent) not in edge.sends
             ]
@@ -742,7 +759,7 @@ def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[F
 __all__ = ["INFINITE", "NOP", "Finding"]
 
 
-def _stale(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], bool]) -> str:
+def _stale(sk: Skeleton, s: State, edge: Edge, moving: Motion) -> str:
     """The subordinate whose stale DONE a rule went on on, when that is a slip: every DONE
     it read was stale (it waited for nothing new), or a stale one answers a motion command
     (a new motion was meant; a stale DONE of HALT or INIT only says it is stopped)."""
@@ -753,12 +770,12 @@ def _stale(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], boo
         return stale[0]
     for sub in stale:
         sent = s.subs[sk.subs.index(sub)][0]
-        if sent is not None and moving.get((sub, sent), True):
+        if sent is not None and moving[sub, sent]:
             return sub
     return ""
 
 
-def stale_done(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def stale_done(graph: Graph, moving: Motion) -> list[Finding]:
     """A table rule goes on on a subordinate's DONE only once per command sent: a DONE an
     earlier rule of this command already went on on, or one that answers a command sent
     before this command began, is stale (W707) - the wait did not wait (a send left out)."""
@@ -795,7 +812,7 @@ def stale_done(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Findin
     return findings
 
 
-def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], bool]) -> list[str]:
+def _going_on(sk: Skeleton, s: State, edge: Edge, moving: Motion) -> list[str]:
     """The motion commands a table rule that fired leaves running although its guard reads
     their subordinate's status: it went on before the echo (not to report ERROR, not on
     another subordinate's ERROR, not re-commanding it)."""
@@ -811,7 +828,7 @@ def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], 
         return []
     failing = edge.report == ERROR or ERROR in views
     rule = rule_view(sk, edge.rules[-1])
-    moves = any(moving.get(send, True) for send in edge.sends)
+    moves = any(moving[send] for send in edge.sends)
     return [
         f"{sub}.{sent}"
         for sub, sent in running
@@ -825,7 +842,7 @@ def _early(
     sent: str,
     resent: list[str],
     failing: bool,
-    moving: dict[tuple[str, str], bool],
+    moving: Motion,
     moves: bool,
 ) -> bool:
     """Whether going on while `sub` still runs `sent` (the rule read its status) is too
@@ -835,11 +852,11 @@ def _early(
     things (a preemption); by a motion command, or with motion sent anywhere (`moves`), on
     a status read, it is the next step taken before the echo of the last."""
     if failing:
-        return not resent and not moving.get((sub, sent), True)
+        return not resent and not moving[sub, sent]
     return not resent or moves
 
 
-def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def no_echo(graph: Graph, moving: Motion) -> list[Finding]:
     """A rule that reads a subordinate's status goes on (to another state) only once the
     subordinate has answered the motion command it runs: it waited for the echo (W708)."""
     sk = graph.skeleton
@@ -883,7 +900,7 @@ def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
 def _running(
     sk: Skeleton,
     s: State,
-    moving: dict[tuple[str, str], bool],
+    moving: Motion,
     loose: frozenset[tuple[str, str]] = frozenset(),
 ) -> frozenset[str]:
     """The subordinates running a motion command sent during the current command, or that
@@ -894,16 +911,11 @@ def _running(
         for sub, (sent, view, fresh) in zip(sk.subs, s.subs, strict=True)
         if fresh
         and sent is not None
-        and (
-            (view == EXECUTING and moving.get((sub, sent), True))
-            or (view == ERROR and (sub, sent) in loose)
-        )
+        and ((view == EXECUTING and moving[sub, sent]) or (view == ERROR and (sub, sent) in loose))
     )
 
 
-def loose_errors(
-    graph: Graph, moving: dict[tuple[str, str], bool], loose: frozenset[tuple[str, str]]
-) -> set[str]:
+def loose_errors(graph: Graph, moving: Motion, loose: frozenset[tuple[str, str]]) -> set[str]:
     """The commands the controller may end with ERROR while a subordinate still runs a
     motion command of it, or ended one with a loose ERROR and was not sent anything since:
     part of its contract - a supervisor must then withdraw it (HALT) after its ERROR."""
@@ -918,7 +930,7 @@ def loose_errors(
 
 def not_withdrawn(
     graph: Graph,
-    moving: dict[tuple[str, str], bool],
+    moving: Motion,
     loose: frozenset[tuple[str, str]] = frozenset(),
 ) -> list[Finding]:
     """After a subordinate's ERROR, every other subordinate still running a motion command

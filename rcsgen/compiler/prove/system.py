@@ -333,8 +333,8 @@ def _contracts_of(
 
 def _check(
     graph: Graph,
-    moving: dict[tuple[str, str], bool],
-    actuating: dict[tuple[str, str], bool],
+    moving: props.Motion,
+    actuating: props.Motion,
     loose: frozenset[tuple[str, str]],
     quiet: Callable[[State], frozenset[str]],
     result: ControllerResult,

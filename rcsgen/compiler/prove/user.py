@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable
 
+from ...runtime.contract import NO_COMMAND_NAME
 from .. import ir
 from ..ir import IRPropAtom, IRProperty, IRPropExpr, PropKind
 from .adapter import Skeleton, table_rules
@@ -44,7 +45,7 @@ def _atom(sk: Skeleton, a: IRPropAtom) -> Test:
     if a.kind is PropKind.STATE:
         return lambda edge, t, unsafe: t.state == value
     if a.kind is PropKind.COMMAND:
-        return lambda edge, t, unsafe: (t.command or "NONE") == value
+        return lambda edge, t, unsafe: (t.command or NO_COMMAND_NAME) == value
     if a.kind is PropKind.STATUS:
         return lambda edge, t, unsafe: t.status == value
     if a.kind is PropKind.SENT:
@@ -64,7 +65,7 @@ def _atom(sk: Skeleton, a: IRPropAtom) -> Test:
     index = sk.subs.index(a.module)
     if a.kind is PropKind.SUB_STATUS:
         return lambda edge, t, unsafe: edge.views[index] == value
-    return lambda edge, t, unsafe: (t.subs[index][0] or "NONE") == value  # SUB_COMMAND
+    return lambda edge, t, unsafe: (t.subs[index][0] or NO_COMMAND_NAME) == value  # SUB_COMMAND
 
 
 def _joined(op: str, parts: list[Test]) -> Test:
