@@ -6,8 +6,9 @@ own copy of rcs/), with one change that does not change what the system does (so
 variant runs the same scenario through the same states): the hook calls made directly
 (no deadline, no error wrapping, no result check), the result check alone left out, the
 modules' execution-time bookkeeping (the two clock reads and the performance buffer's
-write) left out, the process's time-in-state check or its beat left out, or all of these
-at once. Variants take turns every `--chunk` system cycles (in alternating order) so that
+write) left out, or only the buffer's write (the clock reads kept), the process's
+time-in-state check or its beat left out, or all of these at once. Variants take turns
+every `--chunk` system cycles (in alternating order) so that
 other work on the machine hits them alike; reported: CPU ns per system cycle (median over
 turns), and the median of the turn-by-turn differences to "as generated". What a variant
 saves is what that work costs; what "all out" keeps is the modules' own reads, tables and
@@ -44,6 +45,13 @@ def no_perf(source: str) -> str:
     """A module's source without its execution-time bookkeeping."""
     source = source.replace("cycle_start = began or perf_counter_ns()\n", "\n")
     return PERF_WRITE.sub("        self.cycles += 1\n        end = 0\n", source)
+
+
+def no_perf_buffer(source: str) -> str:
+    """A module's source with its clock reads kept but no performance buffer written: what
+    a process-wide record (one write a cycle for all its modules) would still pay per module."""
+    kept = "        end = perf_counter_ns()\n        self.last_cycle_ns = end - cycle_start\n"
+    return PERF_WRITE.sub(kept + "        self.cycles += 1\n", source)
 
 
 def package(scratch: Path, name: str, edit: Callable[[str], str] | None) -> Path:
@@ -113,14 +121,20 @@ class Variant:
             setattr(owner, attribute, value)
 
 
-VARIANTS: dict[str, tuple[bool, tuple[str, ...]]] = {  # name -> (edited source, patches)
-    "as generated": (False, ()),
-    "hook calls direct": (False, ("direct",)),
-    "no hook result check": (False, ("unchecked",)),
-    "no execution-time bookkeeping": (True, ()),
-    "no time-in-state check": (False, ("no clocks",)),
-    "no beat": (False, ("no beat",)),
-    "all of these out": (True, ("direct", "no clocks", "no beat")),
+EDITS: dict[str, Callable[[str], str] | None] = {
+    "": None,
+    "no perf": no_perf,
+    "no buffer": no_perf_buffer,
+}
+VARIANTS: dict[str, tuple[str, tuple[str, ...]]] = {  # name -> (source edit, patches)
+    "as generated": ("", ()),
+    "hook calls direct": ("", ("direct",)),
+    "no hook result check": ("", ("unchecked",)),
+    "no execution-time bookkeeping": ("no perf", ()),
+    "clocks kept, no perf buffer": ("no buffer", ()),
+    "no time-in-state check": ("", ("no clocks",)),
+    "no beat": ("", ("no beat",)),
+    "all of these out": ("no perf", ("direct", "no clocks", "no beat")),
 }
 
 
@@ -135,7 +149,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="system_ablation-") as scratch:
         variants = {}
         for name, (edited, patches) in chosen.items():
-            path = package(Path(scratch), f"v{len(variants)}", no_perf if edited else None)
+            path = package(Path(scratch), f"v{len(variants)}", EDITS[edited])
             repeater = bench_system.Repeater(bench_system.SCENARIO, path)
             variants[name] = Variant(repeater, patches)
         if args.against is not None:
