@@ -272,3 +272,18 @@ def test_an_unused_acknowledgement_says_where_its_code_is_acknowledged(check) ->
         f"remove it if the finding is gone; {code} is about {kind}: acknowledge it {where[kind]}"
         for code, kind in ABOUT.items()
     ]
+
+
+def test_a_spec_that_does_not_load_reports_no_stale_acknowledgement(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """When the system file does not load, the checks never ran: an acknowledgement that
+    matched nothing is not W303 (it may well match once the error is fixed)."""
+    monkeypatch.chdir(tmp_path)
+    allow = "  allow:\n    - {code: W505, states: [S2], reason: never waited for on purpose}"
+    directory = make(tmp_path, WAITS.format(allow=allow))
+    system = directory / "system.yaml"
+    system.write_text(system.read_text() + "bogus_key: 1\n")
+    diags = compile_paths([directory]).diagnostics
+    assert diags.errors
+    assert [d.code for d in diags if d.code == "W303"] == []
