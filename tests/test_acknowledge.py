@@ -297,3 +297,18 @@ def test_an_unmatched_acknowledgement_after_others_is_still_w303(tmp_path: Path)
         ("W303", "the acknowledgement of W509 on rule 4 of RUN MOVING matches no finding")
     ]
     assert [d.code for d in out.diagnostics.acknowledged] == ["W505"]
+
+
+def test_a_spec_that_does_not_load_reports_no_stale_acknowledgement(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """When the system file does not load, the checks never ran: an acknowledgement that
+    matched nothing is not W303 (it may well match once the error is fixed)."""
+    monkeypatch.chdir(tmp_path)
+    allow = "  allow:\n    - {code: W505, states: [S2], reason: never waited for on purpose}"
+    directory = make(tmp_path, WAITS.format(allow=allow))
+    system = directory / "system.yaml"
+    system.write_text(system.read_text() + "bogus_key: 1\n")
+    diags = compile_paths([directory]).diagnostics
+    assert diags.errors
+    assert [d.code for d in diags if d.code == "W303"] == []

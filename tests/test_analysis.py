@@ -1685,3 +1685,22 @@ def test_a_scaled_variable_and_a_min_of_constants_keep_their_exact_bounds(spec) 
             "rules 1 and 2 of GO S0 can both fire: both hold when world.x=1.75",
         )
     ]
+
+
+def test_a_form_names_its_variables_in_key_order_as_the_spec_spells_them() -> None:
+    """A comparison of several variables becomes one form, its variables in key order (a
+    local before a subordinate's result before a world field) with the first's coefficient
+    1, each shown as the spec spells it: the text a counter-example shows."""
+    scope = X.Scope(
+        world={"level": FLOAT},
+        world_access=frozenset({"level"}),
+        locals={"ticks": INT},
+        subordinates={"a": frozenset({"INIT", "HALT", "GO"})},
+        sub_results={"a": {"n": FLOAT}},
+    )
+    builder = analysis.GuardBuilder({}, {}, {"a": ("INIT", "HALT", "GO")})
+    shown = []
+    for text in ("a.result.n > ticks + 1", "world.level < 2 * a.result.n", "a.status == DONE"):
+        tree = X.compile_expr(text, Span("t"), scope, Diagnostics(), BOOL)
+        shown += [analysis.show_key(key) for key in builder.guard(tree).order]
+    assert shown == ["(ticks - a.result.n)", "(a.result.n - 0.5*world.level)", "a.status"]

@@ -426,3 +426,30 @@ def test_a_functions_doc_opens_its_docstring_in_the_generated_module() -> None:
     assert (target.name, target.doc) == ("target", doc)
     generated = (root / "generated" / "cell" / "pln.py").read_text()
     assert f'def target(step: int) -> float:\n    """{doc}\n\n    Pure function: 20.0' in generated
+
+
+def test_only_a_controller_that_declares_reasons_records_a_cause(lowered, tmp_path: Path) -> None:
+    """docs/semantics.md "Reasons survive": top (reasons declared) has a `cause` field and
+    its rule on dev's ERROR records dev; without reasons, neither (its ERROR has no reason)."""
+    assert (lowered["top"].cause, lowered["dev"].cause) == (True, True)
+    top = TOP.replace("    reasons: [REFUSED, WORN, BLOCKED]\n", "").replace(
+        "[{report: ERROR, reason: dev.reason}]", "[report: ERROR]"
+    )
+    for name, text in (("system", SYSTEM), ("top", top), ("dev", DEV)):
+        (tmp_path / f"{name}.yaml").write_text(text)
+    out = compile_paths([tmp_path], analyse=False)
+    assert [d.code for d in out.diagnostics.items] == []
+    plain = next(c for c in out.systems[0].controllers if c.name == "top")
+    assert plain.cause is False
+    assert [r.cause_of for r in plain.commands[-1].states[1].rules] == ["", ""]
+
+
+def test_every_dataclass_of_the_ir_module_is_declared_frozen() -> None:
+    """The cheap half of the test above: each dataclass ir.py declares is frozen."""
+    classes = [
+        c
+        for _, c in inspect.getmembers(ir, inspect.isclass)
+        if c.__module__ == ir.__name__ and dataclasses.is_dataclass(c)
+    ]
+    assert "IRPropAtom" in {c.__name__ for c in classes}
+    assert [c.__name__ for c in classes if not c.__dataclass_params__.frozen] == []

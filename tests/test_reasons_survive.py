@@ -231,6 +231,7 @@ def test_a_full_chain_keeps_its_root() -> None:
         ("ERROR == fx.status", "fx"),
         ("world.jam and fx.status == ERROR", "fx"),
         ("fx.status != DONE", ""),
+        ("fx.status != ERROR", ""),
         ("fx.status == ERROR or world.jam", ""),
         ("not (fx.status == ERROR)", ""),
         ("fx.status == DONE", ""),
