@@ -506,7 +506,9 @@ def test_let_and_functions_read_like_hand_written_code() -> None:
     helm = emit.render_all(front.systems)["expressions/helm.py"]
     assert (
         "def wrap(a: float) -> float:\n"
-        '    """Pure function: a - 360.0 if a > 180.0 else (a + 360.0 if a < -180.0 else a)"""\n'
+        '    """An angle in degrees folded into -180..180.\n\n'
+        "    Pure function: a - 360.0 if a > 180.0 else (a + 360.0 if a < -180.0 else a)\n"
+        '    """\n'
         "    return a - 360.0 if a > 180.0 else a + 360.0 if a < -180.0 else a\n"
     ) in helm
     assert (
