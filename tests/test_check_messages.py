@@ -6,12 +6,16 @@ enum actuator whose safe value is not one of its values. One small system, edite
 
 from __future__ import annotations
 
+from dataclasses import FrozenInstanceError
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
 from rcsgen.cli import main
+from rcsgen.compiler.checks import tables
+from rcsgen.compiler.checks.check import check_system
+from rcsgen.compiler.diagnostics import Diagnostics
 from rcsgen.compiler.frontend import compile_paths
 
 SYSTEM = """\
@@ -354,3 +358,65 @@ def test_a_command_name_with_a_line_break_is_refused_as_an_upper_case_identifier
             "names are plain ASCII identifiers; remove the line break or other character",
         )
     ]
+
+
+def test_every_stand_in_is_checked_after_one_that_is_not_there(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A stand-in with no spec is reported, and the stand-ins after it are still checked."""
+    added = "stand_ins:\n  tank: tank_sim\n  tnak: tnak_sim\n"
+    found = said(tmp_path, monkeypatch, SYSTEM + "\n" + added, TANK)
+    assert ("E234", "stand-in `tank_sim` has no controller spec", "did you mean `tank`?") in found
+    assert ("E234", "`tnak` has a stand-in but no controller spec", "did you mean `tank`?") in found
+
+
+def _e215(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, tank: str) -> list[tuple[int, str]]:
+    (tmp_path / "system.yaml").write_text(SYSTEM)
+    (tmp_path / "tank.yaml").write_text(tank)
+    monkeypatch.chdir(tmp_path)
+    found = compile_paths([Path(".")]).diagnostics.items
+    return [(d.span.line, d.message) for d in found if d.code == "E215"]
+
+
+def test_a_planner_without_a_hooks_module_is_shown_at_the_planner(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    plans = (
+        "plans:\n  route:\n    doc: A route.\n    planner: plan_route\n    args: []\n"
+        "    steps: {x: float}\n    capacity: 4\n\n"
+    )
+    tank = TANK.replace("world:\n", plans + "world:\n", 1)
+    line = tank.splitlines().index("    planner: plan_route") + 1
+    assert _e215(tmp_path, monkeypatch, tank) == [
+        (line, "`tank` declares a planner but no `hooks_module`")
+    ]
+
+
+def test_a_state_factory_without_a_hooks_module_is_shown_at_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    tank = TANK.replace("world:\n", "hooks_state: new_state\n\nworld:\n", 1)
+    line = tank.splitlines().index("hooks_state: new_state") + 1
+    found = _e215(tmp_path, monkeypatch, tank)
+    assert [at for at, _ in found] == [line], found
+
+
+def test_a_passed_on_reason_passes_lost_and_the_reasons_both_declare() -> None:
+    """`reason: tl.reason` in MS's CALIBRATE_CMM (reasons REFUSED, TIMED_OUT, MACHINE_FAULT)
+    passes on LOST and the reasons TL declares that the command declares too; any other
+    code of TL's reads as NONE (docs/semantics.md, "Results and reasons")."""
+    system, controllers = compile_paths([Path("specs/inspection")]).models["inspection"]
+    checked = check_system(system, controllers, Diagnostics())
+    assert checked is not None
+    command = checked.controllers["ms"].commands["CALIBRATE_CMM"]
+    passed = {
+        (action.reason, action.passes)
+        for state in command.states.values()
+        for rule in state.rules
+        for action in rule.actions
+        if isinstance(action, tables.Report) and action.status == "ERROR"
+    }
+    assert passed == {("tl.reason", ("LOST", "REFUSED", "TIMED_OUT")), ("MACHINE_FAULT", ())}
+    # a checked command is a value the back end and the prover share: it cannot be changed
+    with pytest.raises(FrozenInstanceError):
+        command.code = 9  # type: ignore[misc]

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from rcsgen.compiler.checks.operators import instruction_fields
 from rcsgen.compiler.frontend import compile_paths
 
 PLATOON = Path(__file__).resolve().parent.parent / "specs" / "platoon"
@@ -109,3 +110,26 @@ def test_a_huge_bound_above_the_other_is_quoted_cut_in_e910(tmp_path) -> None:
         f"{WHERE} has `min` {'9' * 27}... above its `max` 5000.0: no answer fits",
         "swap them",
     ) in found, found
+
+
+@pytest.mark.parametrize(
+    ("text", "fields", "refused"),
+    [
+        ("Load {part} into {fixture}", ["part", "fixture"], None),
+        ("Plain text, no field", [], None),
+        ("Set {speed:>3} now", None, "`{speed:>3}` is not `{parameter}`"),
+        ("Set {speed!r} now", None, "`{speed!r}` is not `{parameter}`"),
+        ("Set {speed!r:>3} now", None, "`{speed!r:>3}` is not `{parameter}`"),
+        ("Set {0} now", None, "`{0}` is not `{parameter}`"),
+    ],
+)
+def test_an_instruction_texts_fields_or_the_field_it_refuses_word_for_word(
+    text: str, fields: list[str] | None, refused: str | None
+) -> None:
+    """The refused field is quoted as written, its conversion and format spec included."""
+    if refused is None:
+        assert instruction_fields(text) == fields
+    else:
+        with pytest.raises(ValueError) as raised:
+            instruction_fields(text)
+        assert str(raised.value) == refused
