@@ -57,14 +57,18 @@ def system(package: ModuleType) -> Iterator[tuple[Harness, str]]:
     named = blocks.Block(layout, segment, True)
     private = blocks.Block
     blocks.Block = lambda layout: named  # the harness's block: the named one
-    try:
-        harness = Harness(package, send_init=True)
+    try:  # a harness that cannot be made or run (a broken package) leaves no segment
+        try:
+            harness = Harness(package, send_init=True)
+        finally:
+            blocks.Block = private
+        try:
+            harness.cycle(3)
+            yield harness, segment
+        finally:
+            harness.close()
     finally:
-        blocks.Block = private
-    harness.cycle(3)
-    yield harness, segment
-    harness.close()
-    named.close()
+        named.close()
     assert not Path(f"/dev/shm/{segment}").exists()
 
 
