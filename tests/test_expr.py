@@ -727,3 +727,14 @@ def test_printer_keeps_only_the_parentheses_python_needs() -> None:
         tree = compile_expr(source, SPAN, scope(), Diagnostics())
         assert tree is not None, source
         assert to_python(tree, spec_name) == want, source
+
+
+@pytest.mark.parametrize(
+    ("value", "fits"),
+    [(-(2**63), True), (2**63 - 1, True), (-(2**63) - 1, False), (2**63, False), (True, True)],
+)
+def test_an_int_fits_when_eight_bytes_hold_it_and_not_one_past(value: int, fits: bool) -> None:
+    """The int64 bounds themselves are values (`q` packs them); one past either is E110."""
+    from rcsgen.compiler.expressions.nodes import int_range_problem
+
+    assert (int_range_problem(value) == "") is fits

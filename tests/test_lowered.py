@@ -453,3 +453,16 @@ def test_every_dataclass_of_the_ir_module_is_declared_frozen() -> None:
     ]
     assert "IRPropAtom" in {c.__name__ for c in classes}
     assert [c.__name__ for c in classes if not c.__dataclass_params__.frozen] == []
+
+
+@pytest.mark.parametrize(
+    ("periods", "timeout"),
+    [((0.01,), 0.5), ((0.01, 0.04), 0.5), ((0.1, 0.02), 1.0), ((0.25,), 2.5)],
+)
+def test_the_default_heartbeat_timeout_is_ten_of_the_longest_periods_at_least_half_a_second(
+    periods: tuple[float, ...], timeout: float
+) -> None:
+    from rcsgen.compiler.back_end.lower import default_heartbeat_timeout
+
+    processes = [ir.IRProcess(f"p{n}", period, "", (), ()) for n, period in enumerate(periods)]
+    assert default_heartbeat_timeout(processes) == pytest.approx(timeout)
