@@ -21,6 +21,10 @@ ANY_ATOM = (
 )
 # (the property's condition, as YAML; the error it gets)
 CASES = {
+    "no_such_command": (
+        "always: cr.command == ZZZZ",
+        ("E710", "`ZZZZ` is no command of cr", "one of: INIT, HALT, SUMP, SHEAR, CUSP, NONE"),
+    ),
     "world_compared": (
         "always: world.drum_on_cmd == true",
         (

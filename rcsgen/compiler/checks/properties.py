@@ -19,6 +19,7 @@ from __future__ import annotations
 import ast
 import re
 
+from ...runtime.contract import NO_COMMAND_NAME
 from ..diagnostics import Diagnostics, Span, counted, did_you_mean
 from ..expressions.nodes import STATUS_NAMES
 from ..expressions.resolve import _parse, char_at
@@ -26,7 +27,6 @@ from ..front_end.model import ControllerSpec, Located, SystemSpec, UserProperty
 from ..ir import IRPropAtom, IRProperty, IRPropExpr, PropKind
 
 MAX_WITHIN = 100  # cycles: the longest response a property may give its supervisor
-NO_COMMAND = "NONE"  # `<module>.command == NONE`: nothing sent yet
 NO_STATE = "NOP"  # `<module>.state == NOP`: no table running (after a report)
 _FIELDS = {"state": PropKind.STATE, "command": PropKind.COMMAND, "status": PropKind.STATUS}
 
@@ -151,7 +151,7 @@ class _Reader:
             self.own.setdefault(module, self.at(node))
         allowed = {
             "state": [*self.names.states(module), NO_STATE],
-            "command": [*self.names.commands(module), NO_COMMAND],
+            "command": [*self.names.commands(module), NO_COMMAND_NAME],  # nothing sent yet
             "status": list(STATUS_NAMES),
         }[attr]
         if value.id not in allowed:
