@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import functools
 import hashlib
 import json
 import math
@@ -620,25 +621,21 @@ def importers(module: str, root: Path = REPO) -> set[str]:
     }
 
 
-_IMPORTS: dict[Path, dict[str, set[Any]]] = {}
-
-
+@functools.cache
 def _imports(root: Path) -> dict[str, set[Any]]:
     """Each test file's imports: the dotted names it imports or imports from, and for each
-    `from A import b`, (A, b)."""
-    if root not in _IMPORTS:
-        found: dict[str, set[Any]] = {}
-        for path in sorted((root / "tests").glob("test_*.py")):
-            names: set[Any] = set()
-            for node in ast.walk(ast.parse(path.read_bytes())):
-                if isinstance(node, ast.Import):
-                    names.update(alias.name for alias in node.names)
-                elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
-                    names.add(node.module)
-                    names.update((node.module, alias.name) for alias in node.names)
-            found[str(path.relative_to(root))] = names
-        _IMPORTS[root] = found
-    return _IMPORTS[root]
+    `from A import b`, (A, b). Read once a run."""
+    found: dict[str, set[Any]] = {}
+    for path in sorted((root / "tests").glob("test_*.py")):
+        names: set[Any] = set()
+        for node in ast.walk(ast.parse(path.read_bytes())):
+            if isinstance(node, ast.Import):
+                names.update(alias.name for alias in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                names.add(node.module)
+                names.update((node.module, alias.name) for alias in node.names)
+        found[str(path.relative_to(root))] = names
+    return found
 
 
 def selection(

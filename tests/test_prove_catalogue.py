@@ -268,6 +268,16 @@ LOOSE_TOP += "".join(
     for c in ("GO", "TRY")
 )
 
+
+def _two_subs(processes: str) -> tuple[str, ...]:
+    """top over sub and sub2 (an actuator each), its processes as `processes` says."""
+    system = TINY_SYSTEM.replace("  p:\n    modules: [top, sub]", processes).replace(
+        "processes:", "  drive2: {type: float, initial: 0.0, actuator: true}\nprocesses:"
+    )
+    sub2 = TINY_SUB.replace("controller: sub", "controller: sub2").replace("drive", "drive2")
+    return system, TINY_SUB, TOP.replace("[sub]", "[sub, sub2]") + WAITS, sub2
+
+
 TOP = "controller: top\ntitle: Top\nsubordinates: [sub]\ncommands:\n"
 CONTINUE = ("subordinates: [sub]\n", "subordinates: [sub]\non_lost:\n  sub: continue\n")
 # LATCH_TOP's HALT without the lamp: HALT sub, wait for it
@@ -362,30 +372,10 @@ CASES = {
     ),
     # top's first subordinate runs in another process, its second before it in top's own:
     # W704 for the second
-    "second_sub_before_top": (
-        TINY_SYSTEM.replace(
-            "  p:\n    modules: [top, sub]",
-            "  a:\n    modules: [sub]\n  p:\n    modules: [sub2, top]",
-        ).replace(
-            "processes:", "  drive2: {type: float, initial: 0.0, actuator: true}\nprocesses:"
-        ),
-        TINY_SUB,
-        TOP.replace("[sub]", "[sub, sub2]") + WAITS,
-        TINY_SUB.replace("controller: sub", "controller: sub2").replace("drive", "drive2"),
-    ),
+    "second_sub_before_top": _two_subs("  a:\n    modules: [sub]\n  p:\n    modules: [sub2, top]"),
     # top's first subordinate runs after it in its process, its second before it: W704 for
     # the second
-    "first_sub_after_top": (
-        TINY_SYSTEM.replace(
-            "  p:\n    modules: [top, sub]",
-            "  p:\n    modules: [sub2, top, sub]",
-        ).replace(
-            "processes:", "  drive2: {type: float, initial: 0.0, actuator: true}\nprocesses:"
-        ),
-        TINY_SUB,
-        TOP.replace("[sub]", "[sub, sub2]") + WAITS,
-        TINY_SUB.replace("controller: sub", "controller: sub2").replace("drive", "drive2"),
-    ),
+    "first_sub_after_top": _two_subs("  p:\n    modules: [sub2, top, sub]"),
 }
 EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"
 

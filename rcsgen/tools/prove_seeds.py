@@ -309,7 +309,7 @@ def _echo_replaced(seed: Seed, spec: dict[str, Any], proof: SystemProof) -> str:
         sub = _instance_sub(mine.skeleton.subs, sub)
         sends = [[_instance_sub(mine.skeleton.subs, to), c] for to, c in sends]
     moving = props.motion({name: graph.skeleton for name, graph in proof.graphs.items()})
-    if any(to == sub for to, _ in sends) and not any(moving.get((to, c)) for to, c in sends):
+    if any(to == sub for to, _ in sends) and not any(moving[to, c] for to, c in sends):
         return f"the rule only stops things, {sub} among them: stopping it early is safe"
     return ""
 

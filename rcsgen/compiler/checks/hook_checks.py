@@ -93,14 +93,12 @@ class _Module:
 
 def _no_hooks_module(spec: ControllerSpec, diags: Diagnostics) -> None:
     """E215 at the first hook, the hook-state factory or the first planner."""
-    first = next((hook.span for hook in spec.hooks.values()), spec.span)
-    if spec.hooks_state is not None and not spec.hooks:
-        first = spec.hooks_state.span
-    if not spec.hooks and spec.hooks_state is None:
-        first = next(iter(spec.plans.values())).planner.span
-    what = "hooks" if spec.hooks else "a planner"
-    if not spec.hooks and spec.hooks_state is not None:
-        what = "a hook-state factory"
+    if spec.hooks:
+        first, what = next(iter(spec.hooks.values())).span, "hooks"
+    elif spec.hooks_state is not None:
+        first, what = spec.hooks_state.span, "a hook-state factory"
+    else:
+        first, what = next(iter(spec.plans.values())).planner.span, "a planner"
     diags.error(
         first,
         "E215",

@@ -82,15 +82,18 @@ def _executing(graph: Graph) -> list[State]:
     return [s for s in graph.edges if s.status == EXECUTING and s.command is not None]
 
 
+NEVER_MOTION = ("INIT", "HALT")  # the commands that never move anything
+
+
 class Motion(dict[tuple[str, str], bool]):
     """(module, command) -> whether it is a motion command (INIT and HALT never are). A
     command it does not know is motion (the safe guess): `moving[sub, command]`."""
 
     def __missing__(self, key: tuple[str, str]) -> bool:
-        return key[1] not in ("INIT", "HALT")
+        return key[1] not in NEVER_MOTION
 
     def get(self, key: tuple[str, str], default: bool | None = True) -> bool:  # type: ignore[override]
-        if key[1] in ("INIT", "HALT"):
+        if key[1] in NEVER_MOTION:
             return False
         return bool(super().get(key, True if default is None else default))
 
@@ -105,7 +108,7 @@ def motion(sk_of: dict[str, Skeleton], idle: bool = True) -> Motion:
     memo: dict[tuple[str, str], bool] = {}
 
     def moving(module: str, command: str, depth: int = 0) -> bool:
-        if command in ("INIT", "HALT"):
+        if command in NEVER_MOTION:
             return False
         key = (module, command)
         if key in memo:
