@@ -54,7 +54,7 @@ REGIONS = (
     (
         "controller.py.j2",
         "        if self.rule or self.status_dirty:",
-        "        self.perf_seq = seq + 1",
+        "            self.min_cycle_ns = last  # the shortest yet: with the next publish",
     ),
     (
         "controller.py.j2",

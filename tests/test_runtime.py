@@ -304,6 +304,46 @@ def test_setting_simulate_switches_a_controller_to_its_stand_in_and_back(
     assert h.world["arm_power"] == 1.0
 
 
+def test_a_module_leaving_for_its_stand_in_publishes_its_figures_and_the_stand_in_goes_on(
+    package: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """arm's figures, kept in arm and published only every PERF_INTERVAL (here never after
+    the first beat; no cycle is the longest yet), are published as arm leaves for
+    arm_sim, which takes up the performance record they share from the block: its count
+    goes on from arm's last cycle, not from an older published one."""
+    monkeypatch.setattr(runtime(package, "rcs.loop"), "PERF_INTERVAL_NS", 10**18)
+    h = Harness(package, send_init=True)
+    h.cycle(2)
+    arm = h.controller("arm")
+    arm.max_cycle_ns, arm.min_cycle_ns = 10**15, 1  # no cycle publishes at once from here
+    published = h.layout.PERFORMANCE["arm"].read(h.buf)["cycles"]
+    h.cycle(3)
+    assert (arm.cycles, h.layout.PERFORMANCE["arm"].read(h.buf)["cycles"]) == (5, published)
+    h.set_mode("arm", simulate=True)
+    h.cycle(1)
+    stand_in = h.controller("arm")
+    assert stand_in is not arm
+    assert stand_in.cycles == 6
+    assert stand_in.max_cycle_ns == 10**15
+
+
+def test_a_harness_shows_a_module_s_figures_as_of_its_last_cycle(
+    package: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A harness's `performance` (what a scenario's report reads) publishes the module's
+    figures first: its count and last cycle as the module has them, though its process
+    has not published them yet."""
+    monkeypatch.setattr(runtime(package, "rcs.loop"), "PERF_INTERVAL_NS", 10**18)
+    h = Harness(package, send_init=True)
+    h.cycle(1)
+    arm = h.controller("arm")
+    arm.max_cycle_ns, arm.min_cycle_ns = 10**15, 1  # no cycle publishes at once from here
+    h.cycle(3)
+    assert h.layout.PERFORMANCE["arm"].read(h.buf)["cycles"] == 1
+    shown = h.performance("arm")
+    assert (shown["cycles"], shown["last_cycle_ns"]) == (4, arm.last_cycle_ns)
+
+
 # ---------------------------------------------------------------- identity and lifecycle
 
 

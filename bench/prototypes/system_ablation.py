@@ -5,8 +5,8 @@ Each variant is generated/miner as this tree has it, loaded as a package of its 
 own copy of rcs/), with one change that does not change what the system does (so every
 variant runs the same scenario through the same states): the hook calls made directly
 (no deadline, no error wrapping, no result check), the result check alone left out, the
-modules' execution-time bookkeeping (the two clock reads and the performance buffer's
-write) left out, or only the buffer's write (the clock reads kept), the process's
+modules' execution-time bookkeeping (the clock read, the figures kept and published) left
+out, or only their publishing (the clock read and figures kept), the process's
 time-in-state check or its beat left out, or all of these at once. Variants take turns
 every `--chunk` system cycles (in alternating order) so that
 other work on the machine hits them alike; reported: CPU ns per system cycle (median over
@@ -36,22 +36,23 @@ sys.path.insert(0, str(BENCH))
 
 import bench_system  # noqa: E402
 
-PERF_WRITE = re.compile(
-    r"        # The performance buffer: .*?        self\.perf_seq = seq \+ 1\n", re.S
+PERF_TAIL = re.compile(r"        # Its execution time: kept here.*?        return end\n", re.S)
+PUBLISH_NOW = re.compile(
+    r"        if last > self\.max_cycle_ns or .*?\n            self\.publish\(\).*?\n"
 )
 
 
 def no_perf(source: str) -> str:
-    """A module's source without its execution-time bookkeeping."""
+    """A module's source without its execution-time bookkeeping (its clock read, its figures
+    kept and published)."""
     source = source.replace("cycle_start = began or perf_counter_ns()\n", "\n")
-    return PERF_WRITE.sub("        self.cycles += 1\n        end = 0\n", source)
+    return PERF_TAIL.sub("        self.cycles += 1\n        return 0\n", source)
 
 
-def no_perf_buffer(source: str) -> str:
-    """A module's source with its clock reads kept but no performance buffer written: what
-    a process-wide record (one write a cycle for all its modules) would still pay per module."""
-    kept = "        end = perf_counter_ns()\n        self.last_cycle_ns = end - cycle_start\n"
-    return PERF_WRITE.sub(kept + "        self.cycles += 1\n", source)
+def no_publish(source: str) -> str:
+    """A module's source with its clock read and figures kept, but never published at once
+    (with the `no publish` patch, not by its process either): what publishing costs."""
+    return PUBLISH_NOW.sub("", source)
 
 
 def package(scratch: Path, name: str, edit: Callable[[str], str] | None) -> Path:
@@ -85,7 +86,11 @@ class Variant:
             if attribute.startswith("hook_") and attribute != "hook_state"
         ]
         self.saved = {(c, a): getattr(c, a) for c, a, _, _ in self.hooked}
-        self.saved |= {(self.loop, m): getattr(self.loop, m) for m in ("run_cycle", "beat")}
+        self.saved |= {
+            (self.loop, m): getattr(self.loop, m)
+            for m in ("run_cycle", "beat", "publish")
+            if hasattr(self.loop, m)  # (another checkout's may have no `publish`)
+        }
 
     def apply(self) -> None:
         if "direct" in self.patches:
@@ -99,6 +104,8 @@ class Variant:
             for cls, attribute, hooks, name in self.hooked:
                 module = cls.__module__.rsplit(".", 1)[-1]
                 setattr(cls, attribute, self.deadline.hook(module, hooks, name, 1.0, None))
+        if "no publish" in self.patches:
+            self.loop.publish = lambda process, now_ns=0: None
         if "no clocks" in self.patches or "no beat" in self.patches:
             timed, beats = "no clocks" not in self.patches, "no beat" not in self.patches
 
@@ -124,14 +131,14 @@ class Variant:
 EDITS: dict[str, Callable[[str], str] | None] = {
     "": None,
     "no perf": no_perf,
-    "no buffer": no_perf_buffer,
+    "no publish": no_publish,
 }
 VARIANTS: dict[str, tuple[str, tuple[str, ...]]] = {  # name -> (source edit, patches)
     "as generated": ("", ()),
     "hook calls direct": ("", ("direct",)),
     "no hook result check": ("", ("unchecked",)),
     "no execution-time bookkeeping": ("no perf", ()),
-    "clocks kept, no perf buffer": ("no buffer", ()),
+    "clocks kept, never published": ("no publish", ("no publish",)),
     "no time-in-state check": ("", ("no clocks",)),
     "no beat": ("", ("no beat",)),
     "all of these out": ("no perf", ("direct", "no clocks", "no beat")),

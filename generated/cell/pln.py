@@ -9,7 +9,7 @@ from .layout import (
     PLN_STATUS,
     PLN_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, words
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, performance, words
 
 # Commands pln accepts (the code written to its command buffer).
 INIT = 1
@@ -23,7 +23,6 @@ INPUTS_AT = 416
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 PLN_STATUS_WORD = PLN_STATUS_AT >> 3
-PLN_PERF_WORD = PLN_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -79,6 +78,10 @@ class PlnController:
         "ticks",
         "words",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(PLN_PERF_AT)
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
@@ -183,26 +186,14 @@ class PlnController:
                 words[PLN_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = PLN_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

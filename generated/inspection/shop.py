@@ -26,6 +26,7 @@ from .rcs.contract import (
     caused,
     decode_text,
     encode_text,
+    performance,
     words,
 )
 from .rcs.deadline import hook
@@ -84,7 +85,6 @@ SEQ_WORDS = (33,)
 SHOP_STATUS_WORD = SHOP_STATUS_AT >> 3
 WC_COMMAND_WORD = WC_COMMAND_AT >> 3
 JP_COMMAND_WORD = JP_COMMAND_AT >> 3
-SHOP_PERF_WORD = SHOP_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -160,6 +160,10 @@ class ShopController:
         "wc_written",
         "words",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(SHOP_PERF_AT)
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
     # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
@@ -372,26 +376,14 @@ class ShopController:
             )
             words[JP_COMMAND_WORD] = seq + 1
             self.jp_written = self.jp_command_num
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = SHOP_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

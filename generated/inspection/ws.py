@@ -26,6 +26,7 @@ from .rcs.contract import (
     caused,
     decode_text,
     encode_text,
+    performance,
     plan_problem,
     words,
 )
@@ -83,7 +84,6 @@ INPUTS_AT = 864
 WS_STATUS_WORD = WS_STATUS_AT >> 3
 MS_COMMAND_WORD = MS_COMMAND_AT >> 3
 FX_COMMAND_WORD = FX_COMMAND_AT >> 3
-WS_PERF_WORD = WS_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -161,6 +161,10 @@ class WsController:
         "var_measured",
         "words",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(WS_PERF_AT)
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
     # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
@@ -372,26 +376,14 @@ class WsController:
                 )
                 words[FX_COMMAND_WORD] = seq + 1
                 self.fx_written = self.fx_command_num
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = WS_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

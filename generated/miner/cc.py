@@ -14,7 +14,17 @@ from .layout import (
     SJ_COMMAND,
     SJ_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    STATUS,
+    performance,
+    words,
+)
 
 # Commands cc accepts (the code written to its command buffer).
 INIT = 1
@@ -53,7 +63,6 @@ CC_STATUS_WORD = CC_STATUS_AT >> 3
 BM_COMMAND_WORD = BM_COMMAND_AT >> 3
 CD_COMMAND_WORD = CD_COMMAND_AT >> 3
 SJ_COMMAND_WORD = SJ_COMMAND_AT >> 3
-CC_PERF_WORD = CC_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -104,6 +113,10 @@ class CcController:
         "status_seq",
         "words",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(CC_PERF_AT)
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
@@ -263,26 +276,14 @@ class CcController:
                 SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq, self.sj_command_num, self.sj_command)
                 words[SJ_COMMAND_WORD] = seq + 1
                 self.sj_written = self.sj_command_num
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = CC_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

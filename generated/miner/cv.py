@@ -11,7 +11,16 @@ from .layout import (
     OVERRIDE,
     WORLD_CONVEYOR_ON_CMD_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    STATUS,
+    performance,
+    words,
+)
 from .rcs.override import held
 
 # Commands cv accepts (the code written to its command buffer).
@@ -27,7 +36,6 @@ INPUTS_AT = 1584
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 CV_STATUS_WORD = CV_STATUS_AT >> 3
 WORLD_CONVEYOR_ON_CMD_WORD = WORLD_CONVEYOR_ON_CMD_AT >> 3
-CV_PERF_WORD = CV_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -71,6 +79,10 @@ class CvController:
         "words",
         "world_conveyor_on_cmd",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(CV_PERF_AT)
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
@@ -182,26 +194,14 @@ class CvController:
                     words[WORLD_CONVEYOR_ON_CMD_WORD] = s[0] | 1  # odd before the value changes
                     WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
                     words[WORLD_CONVEYOR_ON_CMD_WORD] = (s[0] | 1) + 1
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = CV_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

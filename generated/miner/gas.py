@@ -24,6 +24,7 @@ from .rcs.contract import (
     READ_TRIES,
     STATUS,
     HookError,
+    performance,
     words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
@@ -47,7 +48,6 @@ GAS_STATUS_WORD = GAS_STATUS_AT >> 3
 WORLD_LOOSE_COAL_TRUE_WORD = WORLD_LOOSE_COAL_TRUE_AT >> 3
 WORLD_COAL_MINED_WORD = WORLD_COAL_MINED_AT >> 3
 WORLD_SHUTTLE_CAR_AWAY_WORD = WORLD_SHUTTLE_CAR_AWAY_AT >> 3
-GAS_PERF_WORD = GAS_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -107,6 +107,10 @@ class GasController:
         "world_shuttle_car_away",
         "world_tail_in_position",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(GAS_PERF_AT)
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
     # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
@@ -233,26 +237,14 @@ class GasController:
                 words[WORLD_LOOSE_COAL_TRUE_WORD] = (s[0] | 1) + 1
                 words[WORLD_COAL_MINED_WORD] = (s[1] | 1) + 1
                 words[WORLD_SHUTTLE_CAR_AWAY_WORD] = (s[2] | 1) + 1
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = GAS_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

@@ -12,7 +12,17 @@ from .layout import (
     WORLD_LEFT_TREAD_CMD_AT,
     WORLD_RIGHT_TREAD_CMD_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    STATUS,
+    performance,
+    words,
+)
 from .rcs.override import held
 
 # Commands tc accepts (the code written to its command buffer).
@@ -39,7 +49,6 @@ INPUTS_AT = 1960
 TC_STATUS_WORD = TC_STATUS_AT >> 3
 WORLD_LEFT_TREAD_CMD_WORD = WORLD_LEFT_TREAD_CMD_AT >> 3
 WORLD_RIGHT_TREAD_CMD_WORD = WORLD_RIGHT_TREAD_CMD_AT >> 3
-TC_PERF_WORD = TC_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -86,6 +95,10 @@ class TcController:
         "world_left_tread_cmd",
         "world_right_tread_cmd",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(TC_PERF_AT)
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
@@ -222,26 +235,14 @@ class TcController:
                     WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                     words[WORLD_LEFT_TREAD_CMD_WORD] = (s[0] | 1) + 1
                     words[WORLD_RIGHT_TREAD_CMD_WORD] = (s[1] | 1) + 1
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = TC_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

@@ -12,7 +12,16 @@ from .layout import (
     WORLD_GATHER_ON_CMD_AT,
     WORLD_PAN_FLOAT_CMD_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    STATUS,
+    performance,
+    words,
+)
 from .rcs.override import held
 
 # Commands gh accepts (the code written to its command buffer).
@@ -30,7 +39,6 @@ INPUTS_AT = 1464
 GH_STATUS_WORD = GH_STATUS_AT >> 3
 WORLD_PAN_FLOAT_CMD_WORD = WORLD_PAN_FLOAT_CMD_AT >> 3
 WORLD_GATHER_ON_CMD_WORD = WORLD_GATHER_ON_CMD_AT >> 3
-GH_PERF_WORD = GH_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -75,6 +83,10 @@ class GhController:
         "world_gather_on_cmd",
         "world_pan_float_cmd",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(GH_PERF_AT)
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
@@ -191,26 +203,14 @@ class GhController:
                     WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                     words[WORLD_PAN_FLOAT_CMD_WORD] = (s[0] | 1) + 1
                     words[WORLD_GATHER_ON_CMD_WORD] = (s[1] | 1) + 1
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = GH_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

@@ -23,6 +23,7 @@ from .rcs.contract import (
     PERF,
     READ_TRIES,
     STATUS,
+    performance,
     words,
 )
 from .rcs.deadline import hook
@@ -65,7 +66,6 @@ SEQ_WORDS = (279, 307, 309, 311)
 VG_STATUS_WORD = VG_STATUS_AT >> 3
 PP_COMMAND_WORD = PP_COMMAND_AT >> 3
 TC_COMMAND_WORD = TC_COMMAND_AT >> 3
-VG_PERF_WORD = VG_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -144,6 +144,10 @@ class VgController:
         "world_wp_x",
         "world_wp_y",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(VG_PERF_AT)
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
     # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
@@ -318,26 +322,14 @@ class VgController:
             TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq, self.tc_command_num, self.tc_command)
             words[TC_COMMAND_WORD] = seq + 1
             self.tc_written = self.tc_command_num
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = VG_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

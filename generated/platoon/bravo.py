@@ -22,6 +22,7 @@ from .rcs.contract import (
     PERF,
     READ_TRIES,
     caused,
+    performance,
     words,
 )
 
@@ -68,7 +69,6 @@ SEQ_WORDS = (257,)
 BRAVO_STATUS_WORD = BRAVO_STATUS_AT >> 3
 BRAVO_LOCO_COMMAND_WORD = BRAVO_LOCO_COMMAND_AT >> 3
 BRAVO_RSTA_COMMAND_WORD = BRAVO_RSTA_COMMAND_AT >> 3
-BRAVO_PERF_WORD = BRAVO_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -123,6 +123,10 @@ class BravoController:
         "words",
         "world_bravo_x",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(BRAVO_PERF_AT)
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
@@ -307,26 +311,14 @@ class BravoController:
             )
             words[BRAVO_RSTA_COMMAND_WORD] = seq + 1
             self.bravo_rsta_written = self.bravo_rsta_command_num
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = BRAVO_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

@@ -19,7 +19,17 @@ from .layout import (
     WORLD_POS_Y_AT,
     WORLD_SPEED_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, STATUS, words
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    STATUS,
+    performance,
+    words,
+)
 from .rcs.deadline import hook
 from .rcs.override import held
 
@@ -45,7 +55,6 @@ WORLD_SPEED_WORD = WORLD_SPEED_AT >> 3
 WORLD_DEPTH_WORD = WORLD_DEPTH_AT >> 3
 WORLD_DEPTH_GAUGE_WORD = WORLD_DEPTH_GAUGE_AT >> 3
 WORLD_BUBBLE_WORD = WORLD_BUBBLE_AT >> 3
-SHIP_PERF_WORD = SHIP_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -138,6 +147,10 @@ class ShipController:
         "world_speed_cmd",
         "world_water_density",
     )
+
+    # Its performance buffer written (rcs/contract.py): by its process every PERF_INTERVAL
+    # and as it stops, by a cycle that is its longest yet, or a single step.
+    publish = performance(SHIP_PERF_AT)
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
     # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
@@ -301,26 +314,14 @@ class ShipController:
                 words[WORLD_DEPTH_WORD] = (s[4] | 1) + 1
                 words[WORLD_DEPTH_GAUGE_WORD] = (s[5] | 1) + 1
                 words[WORLD_BUBBLE_WORD] = (s[6] | 1) + 1
-        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
+        # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
-        last = end - cycle_start
-        self.last_cycle_ns = last
-        self.cycles = cycles = self.cycles + 1
-        seq = self.perf_seq + 1
-        at = SHIP_PERF_WORD
-        words[at] = seq  # odd before any field changes
-        words[at + 1] = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = words[at + 3] = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = words[at + 2] = last
+        self.last_cycle_ns = last = end - cycle_start
+        self.cycles += 1
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()  # the longest yet (the first too), or a step taken: at once
         elif last < self.min_cycle_ns:
-            self.min_cycle_ns = words[at + 2] = last
-        words[at + 4] = cycles
-        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
-            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
-        words[at] = seq + 1
-        self.perf_seq = seq + 1
+            self.min_cycle_ns = last  # the shortest yet: with the next publish
         return end
 
     def read_inputs(self, first: bool = False) -> None:

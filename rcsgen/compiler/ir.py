@@ -183,11 +183,10 @@ class ModuleIO:
     inputs: Gathered | None = None
     world_outputs: tuple[Gathered, ...] = ()
     # The sequence words it stores, as (name, the layout offset it is the index of: `name =
-    # offset >> 3`): its status, each subordinate's command, its world fields', its
-    # performance buffer; and the name each write uses.
+    # offset >> 3`): its status, each subordinate's command, its world fields'; and the
+    # name each write uses.
     stored_words: tuple[tuple[str, str], ...] = ()
     status_word: str = ""
-    perf_word: str = ""
     sub_words: dict[str, str] = field(default_factory=dict)  # subordinate -> its command's
     world_seq_words: tuple[tuple[str, ...], ...] = ()  # each world run's fields'
     world_values: tuple[tuple[str, ...], ...] = ()

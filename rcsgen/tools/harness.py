@@ -327,6 +327,15 @@ class Harness(BlockView):
                 return each.modules[module]
         raise KeyError(f"{module} does not run in this harness")
 
+    def performance(self, module: str) -> dict[str, int]:
+        """`module`'s performance buffer as of its last cycle: a module running here
+        publishes it first (a process does every PERF_INTERVAL, rcs/contract.py)."""
+        for each in self.processes.values():
+            running = each.modules.get(module)
+            if running is not None and hasattr(running, "publish"):
+                running.publish()
+        return super().performance(module)
+
     def step(self, module: str) -> None:
         """Run one module for one cycle; nothing else runs."""
         self.controller(module).run_cycle()

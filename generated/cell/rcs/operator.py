@@ -43,8 +43,10 @@ from .contract import (
     SEQ,
     STATUS,
     field_codes,
+    performance,
     range_problem,
     struct_format,
+    words,
 )
 
 COMMAND_HEAD = Struct(struct_format(COMMAND_HEAD_FIELDS))  # seq, command_num, command
@@ -223,6 +225,8 @@ class OperatorModule:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its performance buffer's sequence word, one 8-byte store
+        self._publish = performance(self.PERF_AT)
         self.channels = tuple(
             Channel(*where, name=f"{self.NAME}/{where[0]}")  # type: ignore[misc]
             for where in self.CHANNELS
@@ -271,30 +275,14 @@ class OperatorModule:
                 elif changed:
                     channel.write(buf)
         end = perf_counter_ns()
-        self.write_performance(end - start)
-        return end
-
-    def write_performance(self, last: int) -> None:
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
+        self.last_cycle_ns = last = end - start  # published every PERF_INTERVAL, as a
+        self.cycles += 1  # controller's: at once when the longest yet, or a step
+        if last > self.max_cycle_ns or self.single_step:
+            self.publish()
         elif last < self.min_cycle_ns:
             self.min_cycle_ns = last
-        self.cycles += 1
-        buf, seq = self.buf, self.perf_seq + 1
-        SEQ.pack_into(buf, self.PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            self.PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, self.PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
+        return end
+
+    def publish(self) -> None:
+        """Its performance buffer written (rcs.contract.performance), as a controller's."""
+        self._publish(self)

@@ -59,9 +59,13 @@ MODE_FIELDS = (
     ("pad", "x"),
     ("single_step_num", "I"),
 )
-# The generated code stores a performance buffer word by word (templates/controller.py.j2):
-# after its sequence word, last, min, max, cycles, then single_step_num and stale_reads as
-# one word (low half, high half). Keep their order and sizes, or change the template too.
+# A module's performance buffer: its execution times and cycle count, which only people and
+# tools read (ctl, the monitor, the launcher's summary). The module keeps them and its
+# process publishes them (the module's `publish`, templates/controller.py.j2) at most every
+# PERF_INTERVAL seconds and as it stops; a module publishes at once a cycle that is its
+# longest yet (its first too), and in single_step mode (the step's number: ctl step waits
+# for it). Over Zenoh they go with a push at most as often (rcs/zenoh_transport.py).
+PERF_INTERVAL = 0.1
 PERF_FIELDS = (
     ("last_cycle_ns", "Q"),
     ("min_cycle_ns", "Q"),
@@ -330,6 +334,39 @@ ANSWER = Struct(struct_format(ANSWER_FIELDS))
 # A control record's head, read without its seqlock (each field is written whole): the
 # sequence word, pid, state, watchdog trips, heartbeat and beat_ns.
 BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))
+
+
+def performance(at: int) -> Callable[[Any], None]:
+    """The `publish` method of a module whose performance buffer is at `at` (PERF_INTERVAL):
+    its longest and shortest cycle brought up to its last, then the buffer written from
+    the module's attributes (PERF_FIELDS's, single_step_num as perf_single_step_num), odd
+    while it is written. One home for the buffer's writing: every generated controller,
+    stand-in and operator module has this method."""
+    word = at >> 3
+
+    def publish(module: Any) -> None:
+        last = module.last_cycle_ns
+        module.max_cycle_ns = max(module.max_cycle_ns, last)
+        if last < module.min_cycle_ns or not module.min_cycle_ns:  # (0: none yet)
+            module.min_cycle_ns = last
+        seq = module.perf_seq + 1
+        words = module.words
+        words[word] = seq  # odd before any field changes, in one 8-byte store
+        PERF.pack_into(
+            module.buf,
+            at,
+            seq,
+            last,
+            module.min_cycle_ns,
+            module.max_cycle_ns,
+            module.cycles,
+            module.perf_single_step_num,
+            module.stale_reads,
+        )
+        words[word] = seq + 1
+        module.perf_seq = seq + 1
+
+    return publish
 
 
 def periodicity(values: Any) -> dict[str, Any] | None:

@@ -32,6 +32,7 @@ from .contract import (
     BEAT,
     MODE_FIELDS,
     PACE,
+    PERF_INTERVAL,
     PERIODICITY_FIELDS,
     PROCESS,
     PROCESS_FIELDS,
@@ -57,6 +58,7 @@ from .transport import Local, Transport
 if TYPE_CHECKING:  # io_cycle is imported by a process that has I/O: ~5 ms of the others' start
     from .io_cycle import IoModule
 
+PERF_INTERVAL_NS = round(PERF_INTERVAL * 1e9)  # how often a beat publishes performance
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
 
 
@@ -223,6 +225,8 @@ class Process:
         self._flags_seen: object = None
         self.simulated: tuple[str, ...] = ()
         self.modules: dict[str, Module] = {}
+        self._publishers: tuple[Callable[[], None], ...] = ()  # each module's `publish`
+        self._publish_due = 0  # monotonic_ns: when the next beat publishes them
         self.steps: tuple[Callable[[int], int | None], ...] = ()  # each running module's cycle
         # time in state (rcs/state_time.py): each controller's and stand-in's clock, and the
         # clock of each module running now (a stand-in's under its controller's name)
@@ -297,9 +301,7 @@ class Process:
                 modules[name] = self.stand_ins[name]
             elif name not in skipped:
                 modules[name] = self.instances[name]
-        for name, module in modules.items():
-            if self.modules and self.modules.get(name) is not module:
-                module.resume()
+        self._hand_over(modules)
         self.simulated, self.modules = simulated, modules
         runs = {n: self.plan.stand_ins[n][0] if n in simulated else n for n in modules}
         timed = {
@@ -314,8 +316,19 @@ class Process:
         self.timed = timed
         self._timed_pairs = tuple(timed.values())  # in the order _status_states reads them
         self.steps = tuple(module.run_cycle for module in modules.values())
+        self._publishers = tuple(m.publish for m in modules.values() if hasattr(m, "publish"))
         self._states_seen = None
         self._block_states = self._status_states(timed)
+
+    def _hand_over(self, modules: dict[str, Module]) -> None:
+        """Modules `modules` take over from the running ones: one leaving publishes its
+        figures as they are, one taking over resumes from the block."""
+        for name, module in self.modules.items():
+            if modules.get(name) is not module and hasattr(module, "publish"):
+                module.publish()
+        for name, module in modules.items():
+            if self.modules and self.modules.get(name) is not module:
+                module.resume()
 
     def _status_states(self, timed: dict[str, tuple[StateClock, Any]]) -> Any:
         """What reads, in one C call, the 8-byte word holding the state (and the rule) of
@@ -401,11 +414,14 @@ class Process:
                     clock.tick(self.block.buf, timed.state, self.cycle)
 
     def beat(self, state: int = RUNNING, now_ns: int | None = None) -> None:
-        """Write the control record: the heartbeat, the counters, the state."""
+        """Write the control record: the heartbeat, the counters, the state; and the modules'
+        performance buffers when PERF_INTERVAL_NS has passed, or the process stops."""
         counters = self.counters  # set one by one: update(**) would build a dict a beat
         counters["state"] = state
         counters["heartbeat"] = self.cycle
-        counters["beat_ns"] = time.monotonic_ns() if now_ns is None else now_ns
+        counters["beat_ns"] = now = time.monotonic_ns() if now_ns is None else now_ns
+        if now >= self._publish_due or state != RUNNING:
+            self.publish(now)
         counters["lost"] = self._lost_mask() if self.lost else 0
         seq = self.record_seq + 1
         words, word = self.words, self.record_word
@@ -413,6 +429,15 @@ class Process:
         PROCESS.pack_into(self.block.buf, self.record.offset, seq, *counters.values())
         words[word] = seq + 1
         self.record_seq = seq + 1
+
+    def publish(self, now_ns: int = 0) -> None:
+        """Each running module's performance buffer written (its `publish`): its execution
+        times and cycle count, which only people and tools read, are kept in the module and
+        published at most every PERF_INTERVAL_NS (and at once by a module whose cycle is
+        its longest yet, or a single step), not by every cycle of every module."""
+        for publish in self._publishers:
+            publish()
+        self._publish_due = now_ns + PERF_INTERVAL_NS
 
     def _lost_mask(self) -> int:
         if not self.lost:  # nearly always: no list built for a beat

@@ -28,7 +28,7 @@ from struct import Struct
 from typing import Any
 
 from .block import Block
-from .contract import ABSENT, DEAD, STOPPED
+from .contract import ABSENT, DEAD, PERF_INTERVAL, STOPPED
 from .loop import STEP, Process, Stop
 from .transport import (
     ALIVE,
@@ -51,10 +51,9 @@ DEFAULT_PORT = 7447  # Zenoh's own default
 # `--fast` process does not flood the network. Paced at the miner's 0.1 s, every cycle goes.
 MIN_PUSH_INTERVAL = 0.005
 # The modules' performance buffers (cycle counts and times, for people: ctl, the monitor)
-# change every cycle; they go with a push at most this often (and with the last and a full
-# push). At the miner's 0.1 s every push carries them; a lockstep or `--fast` process sends
-# its controllers' records every cycle and these ~10 times a second.
-PERF_INTERVAL = 0.1
+# go with a push at most every contract.PERF_INTERVAL, as often as they are published (and
+# with the last and a full push). At the miner's 0.1 s every push carries them; a lockstep
+# or `--fast` process sends its controllers' records every cycle and these ~10 times a second.
 # A free-running push may be dropped where the network is congested (a busy host's queue
 # full: it never blocks a controller), and a record that does not change again would then
 # never arrive (a DONE its supervisor waits for, for ever). So a free-running node sends

@@ -238,9 +238,9 @@ def controller_io(c: ir.IRController, layout: ir.Layout, placement: Placement) -
     written = [*status_fields, *sub_all, *_world_texts(worlds)]
     runtime = _runtime_names(c, read, resume_texts, written, own_status)
     commands = {s.name: f"{s.prefix}_COMMAND_AT" for s in c.subordinates}
-    # the sequence words it stores, in this order: status, commands, world fields, performance
+    # the sequence words it stores, in this order: status, commands, world fields (its
+    # performance buffer's is rcs.contract.performance's to store)
     stored = [f"{own}_STATUS_AT", *commands.values(), *(at for r in worlds for at in r.seq_at)]
-    stored.append(f"{own}_PERF_AT")
     return ir.ModuleIO(
         own=own,
         imports=_ordered(_layout_imports(c, own, worlds, own_status)),
@@ -254,7 +254,6 @@ def controller_io(c: ir.IRController, layout: ir.Layout, placement: Placement) -
         world_outputs=tuple(run.gathered for run in worlds),
         stored_words=tuple((word_name(at), at) for at in stored),
         status_word=word_name(f"{own}_STATUS_AT"),
-        perf_word=word_name(f"{own}_PERF_AT"),
         sub_words={name: word_name(at) for name, at in commands.items()},
         world_seq_words=tuple(tuple(map(word_name, run.seq_at)) for run in worlds),
         world_values=tuple(run.gathered.packed for run in worlds),
@@ -343,7 +342,7 @@ def _runtime_names(
 ) -> set[str]:
     """The contract's names a controller module imports: those its rules need (lowered with
     them), the block's word view, the text codec of its string fields, the seqlock's tries."""
-    names = {*c.runtime_names, "words", "NOP"}  # NOP: an idle module runs no table
+    names = {*c.runtime_names, "words", "NOP", "performance"}  # NOP: an idle module runs no table
     if read.texts or resume_texts:
         names.add("decode_text")
     if any(f.text for f in written):

@@ -73,6 +73,7 @@ RUNTIME_NAMES = frozenset(
     # or report (NOT_READY only where a guard names it), the block's word view, the
     # seqlock's tries, a string field's codec, an error's cause, a plan's problem
     {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "NO_RULE", "STATUS", "PERF", "words"}
+    | {"performance"}
     | {"READ_TRIES", "decode_text", "encode_text", "caused", "HookError", "plan_problem"}
     # what it defines: its inputs' one read and the sequence words read again after it
     | {"INPUTS", "INPUTS_AT", "SEQ_WORDS"}
@@ -111,6 +112,7 @@ CLASS_NAMES = frozenset(
         "__slots__",
         "every_cycle",  # method of the `every_cycle` rules
         "resume",
+        "publish",  # its performance buffer written (rcs.contract.performance)
         "read_inputs",  # pre_process's read again, when another process was writing
         "world_set",  # an every_cycle rule set a world output
         "HOOK_STATE_ON_RESTART",
