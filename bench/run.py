@@ -76,7 +76,10 @@ FLOOR_MAX = 1.1  # generated / minimal (issue 24; issue 5 had 1.5, the runtime i
 # Issue 24: the generated SUMP_SHEAR_CUSP table within 1.3× the lines of the paper's C.
 APPENDIX_C_LINES = 85  # co_sump_shear_cusp in the mining paper's Appendix C, about
 APPENDIX_C_MAX = 1.3
-MODULE_MAX_NS = 1500.0  # whole system in one process, ns per module per cycle
+# Issue 24, the whole miner in one process: its generated code <= 1.5 µs a module a cycle,
+# and the system cycle, hand-written hooks included, <= 50 µs.
+MODULE_MAX_NS = 1500.0
+SYSTEM_MAX_NS = 50_000.0
 TORN_READS_MIN = 10_000_000  # reads across two processes, none torn accepted
 
 
@@ -236,14 +239,20 @@ def section_targets(
         f"{lines_now / APPENDIX_C_LINES:.2f}×",
     )
     if system:
-        per_module = system["ns_per_module"]["median"]
-        hooks, generated = hooks_share(system)
+        cycle, count = system["ns_per_cycle"]["median"], len(system["modules"])
+        hooks, _ = hooks_share(system)
+        generated = generated_share(system)
         add(
-            per_module <= MODULE_MAX_NS,
-            f"whole miner system ≤ {MODULE_MAX_NS / 1000:g} µs per module per cycle: "
-            f"{ns(per_module)} ({len(system['modules'])} modules, "
-            f"{ns(system['ns_per_cycle']['median'])} per system cycle, of which "
-            f"{ns(hooks)} in hand-written hooks; generated code alone {ns(generated)} per module)",
+            cycle <= SYSTEM_MAX_NS,
+            f"whole miner system cycle, hand-written hooks included, ≤ "
+            f"{SYSTEM_MAX_NS / 1000:g} µs: {ns(cycle)} ({count} modules, "
+            f"{ns(system['ns_per_module']['median'])} per module)",
+        )
+        add(
+            generated <= MODULE_MAX_NS,
+            f"whole miner generated code ≤ {MODULE_MAX_NS / 1000:g} µs per module per cycle: "
+            f"{ns(generated)} (the system cycle less the {ns(hooks)} of its hand-written "
+            f"hooks, over {count} modules)",
         )
     if seqlock:
         counted, whole = seqlock["counted"], seqlock["record_read"]
@@ -580,6 +589,13 @@ def hooks_share(system: dict) -> tuple[float, float]:
     return hooks, (sum(modules.values()) - hooks) / len(modules)
 
 
+def generated_share(system: dict) -> float:
+    """ns per module per cycle of the generated code: the system cycle (CPU, not
+    instrumented) less the hand-written hooks' share of it (instrumented), over the modules."""
+    hooks, _ = hooks_share(system)
+    return (system["ns_per_cycle"]["median"] - hooks) / len(system["modules"])
+
+
 def section_helm(helm: dict, system: dict | None) -> list[str]:
     """The submarine's Helm (ICE_MANEUVER, time in the language) next to the miner's co."""
     helm_ns = helm["module_ns"]["helm"]
@@ -631,6 +647,8 @@ def section_system(system: dict) -> list[str]:
         f"| ns per module per cycle | {m['median']:,.0f} | {m['min']:,.0f}–{m['max']:,.0f} |",
         f"| of which hand-written hooks, per system cycle (instrumented) | {hooks:,.0f} | |",
         f"| generated code alone, per module per cycle (instrumented) | {generated:,.0f} | |",
+        f"| generated code, per module per cycle (the system cycle less the hooks) "
+        f"| {generated_share(system):,.0f} | |",
         "",
         f"Per module, from an instrumented pass on the wall clock (clock cost subtracted, "
         f"{system.get('instrumented_cycles_dropped', 0):,} descheduled cycles of "
