@@ -1398,6 +1398,61 @@ def test_a_process_publishes_its_modules_figures_every_perf_interval_and_as_it_s
     assert (perf["min_cycle_ns"], perf["max_cycle_ns"]) == (10, 30)
 
 
+def test_a_beat_stores_the_liveness_words_and_the_whole_record_every_perf_interval(
+    package: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On a fake monotonic clock: each beat's state, watchdog trips, heartbeat and time are
+    in the record at once, read whole (its sequence word even); a count for people
+    (last_cycle_ns) waits for the beat PERF_INTERVAL after the last whole write, and a
+    process reported lost, then no longer lost, is shown with that very beat, as are a new
+    longest cycle and a STOPPED beat."""
+    loop, layout = part(package, "rcs.loop"), part(package, "layout")
+    contract = part(package, "rcs.contract")
+    now = [10**12]
+    monkeypatch.setattr(loop, "time", SimpleNamespace(monotonic_ns=lambda: now[0]))
+    pb = fleet_process(package, "pb")  # its first beat writes the record whole, at now
+    record = layout.PROCESSES["pb"]
+    pb.counters["last_cycle_ns"] = 777
+    pb.counters["watchdog_trips"] = 3
+    now[0] += 5
+    pb.run_cycle()
+    shown = record.read(pb.block.buf)
+    assert (shown["state"], shown["watchdog_trips"]) == (contract.RUNNING, 3)
+    assert (shown["heartbeat"], shown["beat_ns"], shown["last_cycle_ns"]) == (1, now[0], 0)
+    pb.lost.add("pl")  # reported lost: shown with this beat
+    pb.run_cycle()
+    shown = record.read(pb.block.buf)
+    assert (shown["lost"], shown["heartbeat"], shown["last_cycle_ns"]) == (1, 2, 777)
+    pb.counters["last_cycle_ns"] = 888
+    pb.run_cycle()
+    assert record.read(pb.block.buf)["last_cycle_ns"] == 777
+    pb.lost.clear()  # no longer lost: shown with this beat too
+    pb.run_cycle()
+    shown = record.read(pb.block.buf)
+    assert (shown["lost"], shown["last_cycle_ns"]) == (0, 888)
+    pb.counters["last_cycle_ns"] = 999
+    now[0] += loop.PERF_INTERVAL_NS - 1
+    pb.run_cycle()
+    assert record.read(pb.block.buf)["last_cycle_ns"] == 888
+    now[0] += loop.PERF_INTERVAL_NS
+    pb.run_cycle()
+    assert record.read(pb.block.buf)["last_cycle_ns"] == 999
+    pb.counters["last_cycle_ns"] = pb.counters["max_cycle_ns"] = 1050  # the longest yet
+    pb.run_cycle()
+    assert record.read(pb.block.buf)["max_cycle_ns"] == 1050
+    pb.counters["last_cycle_ns"] = 1111
+    pb.run_cycle()
+    assert record.read(pb.block.buf)["last_cycle_ns"] == 1050
+    pb.beat(contract.STOPPED)
+    shown = record.read(pb.block.buf)
+    assert (shown["state"], shown["heartbeat"], shown["last_cycle_ns"]) == (
+        contract.STOPPED,
+        8,
+        1111,
+    )
+    assert record.seq(pb.block.buf) % 2 == 0
+
+
 def test_a_module_made_again_writes_whole_over_buffers_its_predecessor_left_odd(
     package: ModuleType,
 ) -> None:

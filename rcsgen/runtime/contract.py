@@ -89,8 +89,9 @@ MAGIC = b"RCSBLK02"  # 02: the control record carries periodicity and network co
 HEADER = Struct("<8s32s32sQ")  # magic, layout hash (hex), system name, block size
 HEADER_FIELDS = ("magic", "layout_hash", "system", "size")
 
-# Each process's control record: written by the process every cycle (its heartbeat), read by
-# the launcher, the other processes (liveness) and operator tools.
+# Each process's control record: written by the process every cycle (its heartbeat: the
+# LIVENESS_WORDS; whole every PERF_INTERVAL, rcs/loop.py), read by the launcher, the other
+# processes (liveness) and operator tools.
 _BEAT_AND_COUNTS = (
     ("pid", "Q"),
     ("state", "I"),  # PROCESS_STATES
@@ -333,6 +334,13 @@ ANSWER = Struct(struct_format(ANSWER_FIELDS))
 # A control record's head, read without its seqlock (each field is written whole): the
 # sequence word, pid, state, watchdog trips, heartbeat and beat_ns.
 BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))
+# The control record's words a beat stores when it does not write the record whole
+# (rcs/loop.py: every beat but one each PERF_INTERVAL), as indices from its sequence word:
+# state with watchdog_trips (low half, high half: one word), heartbeat, beat_ns.
+LIVENESS_WORDS = tuple(
+    Struct(struct_format(PROCESS_FIELDS[: [n for n, _ in PROCESS_FIELDS].index(name)])).size // 8
+    for name in ("state", "heartbeat", "beat_ns")
+)
 
 
 def performance(at: int) -> Callable[[Any], None]:

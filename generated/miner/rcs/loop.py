@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 from .block import Block
 from .contract import (
     BEAT,
+    LIVENESS_WORDS,
     MODE_FIELDS,
     PACE,
     PERF_INTERVAL,
@@ -58,7 +59,8 @@ from .transport import Local, Transport
 if TYPE_CHECKING:  # io_cycle is imported by a process that has I/O: ~5 ms of the others' start
     from .io_cycle import IoModule
 
-PERF_INTERVAL_NS = round(PERF_INTERVAL * 1e9)  # how often a beat publishes performance
+PERF_INTERVAL_NS = round(PERF_INTERVAL * 1e9)  # how often a beat writes its record whole
+STATE_WORD, HEARTBEAT_WORD, BEAT_NS_WORD = LIVENESS_WORDS
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
 
 
@@ -227,6 +229,7 @@ class Process:
         self.modules: dict[str, Module] = {}
         self._publishers: tuple[Callable[[], None], ...] = ()  # each module's `publish`
         self._publish_due = 0  # monotonic_ns: when the next beat publishes them
+        self._longest_shown = 0  # the control record's max_cycle_ns as last written whole
         self.steps: tuple[Callable[[int], int | None], ...] = ()  # each running module's cycle
         # time in state (rcs/state_time.py): each controller's and stand-in's clock, and the
         # clock of each module running now (a stand-in's under its controller's name)
@@ -414,27 +417,43 @@ class Process:
                     clock.tick(self.block.buf, timed.state, self.cycle)
 
     def beat(self, state: int = RUNNING, now_ns: int | None = None) -> None:
-        """Write the control record: the heartbeat, the counters, the state; and the modules'
-        performance buffers when PERF_INTERVAL_NS has passed, or the process stops."""
+        """Write the control record's liveness words (the state and watchdog trips, the
+        heartbeat, when it beat) under its sequence word; and, with the first beat
+        PERF_INTERVAL_NS after the last, the whole record (its counts and times, for people)
+        and the modules' performance buffers. Also whole: any beat but RUNNING's (starting,
+        stopping), any that reports a process lost or no longer lost, and any after its
+        longest cycle yet (as a module's)."""
         counters = self.counters  # set one by one: update(**) would build a dict a beat
         counters["state"] = state
         counters["heartbeat"] = self.cycle
         counters["beat_ns"] = now = time.monotonic_ns() if now_ns is None else now_ns
-        if now >= self._publish_due or state != RUNNING:
-            self.publish(now)
-        counters["lost"] = self._lost_mask() if self.lost else 0
+        lost = self._lost_mask() if self.lost else 0
         seq = self.record_seq + 1
         words, word = self.words, self.record_word
-        words[word] = seq  # odd before any field changes, in one 8-byte store
-        PROCESS.pack_into(self.block.buf, self.record.offset, seq, *counters.values())
+        longest = counters["max_cycle_ns"]
+        if (
+            now >= self._publish_due
+            or state != RUNNING
+            or lost != counters["lost"]
+            or longest != self._longest_shown
+        ):
+            self.publish(now)
+            counters["lost"], self._longest_shown = lost, longest
+            words[word] = seq  # odd before any field changes, in one 8-byte store
+            PROCESS.pack_into(self.block.buf, self.record.offset, seq, *counters.values())
+        else:  # the liveness words alone, each one 8-byte store (contract.LIVENESS_WORDS)
+            words[word] = seq
+            words[word + STATE_WORD] = state | counters["watchdog_trips"] << 32
+            words[word + HEARTBEAT_WORD] = self.cycle
+            words[word + BEAT_NS_WORD] = now
         words[word] = seq + 1
         self.record_seq = seq + 1
 
     def publish(self, now_ns: int = 0) -> None:
         """Each running module's performance buffer written (its `publish`): its execution
         times and cycle count, which only people and tools read, are kept in the module and
-        published at most every PERF_INTERVAL_NS (and at once by a module whose cycle is
-        its longest yet, or a single step), not by every cycle of every module."""
+        published every PERF_INTERVAL_NS (and at once by a module whose cycle is its
+        longest yet, or a single step), not by every cycle of every module."""
         for publish in self._publishers:
             publish()
         self._publish_due = now_ns + PERF_INTERVAL_NS
