@@ -515,8 +515,8 @@ def section_co(co: dict, ablation: list | None) -> list[str]:
             "look, the test inline, the retries out of line), R2 the rule gate on the world "
             "outputs (compared every cycle instead), R3 the predicates printed inline, R4 "
             "the block's 8-byte word view (sequence words through SEQ.pack_into/unpack_from "
-            "again, the performance buffer packed whole every cycle), R5 the idle test (the "
-            "table method called in NOP too); G2 "
+            "again), R5 the idle test (the table method called in NOP too), R6 the "
+            "performance buffer's publishing (written whole every cycle instead); G2 "
             "does not write the status again in the cycle after a rule fired (G1, the second "
             "read of the command's sequence word, applies to the same-process build: "
             "`ablation.py --same-process`).",
