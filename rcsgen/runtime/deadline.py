@@ -32,10 +32,11 @@ import signal
 import threading
 import time
 from collections.abc import Callable
+from keyword import iskeyword
 from types import ModuleType
 from typing import Any, ClassVar, TypeVar
 
-from .contract import HookError, HookOverrun, result_fits, shared
+from .contract import HookError, HookOverrun, compiled, fast_fits, result_fits_each, shared
 
 FACTORY_DEADLINE = 30.0  # seconds a `hooks_state` factory may take (a map to load, a file)
 TICK = 0.02  # seconds between two looks of the watcher (a quarter of a shorter deadline)
@@ -54,6 +55,7 @@ class _Watch:
 
     state: ClassVar[list[float]] = [0.0, 0.0, 0.0]  # began, deadline, signalled
     watcher: threading.Thread | None = None
+    watching: ClassVar[list[int]] = [0]  # the main thread's id once the watcher runs
     armed = False  # SIGALRM's handler is ours: an overrun can be interrupted
 
 
@@ -70,7 +72,7 @@ def within(deadline: float, hook: Callable[..., _Result], *args: Any) -> _Result
         began = _clock()
         result = hook(*args)
     else:
-        if _Watch.watcher is None:
+        if not _Watch.watching[0]:
             _start()
         state[DEADLINE] = deadline
         state[BEGAN] = began = _clock()
@@ -91,37 +93,64 @@ def hook(
     `self.name(rule, *args)` calls `hooks.name(*args)` (looked up at each call) within
     `deadline` seconds; whatever it raises, an overrun too, is raised as a `HookError` naming
     the module, the hook, `rule` and the module's cycle; a result that does not fit `kinds`
-    (None: the caller checks it, or ignores it) likewise. One frame for the whole call: the
-    deadline's bookkeeping is `within`'s, inlined."""
-    fits = None if kinds is None else result_fits(kinds)
-    state = _STATE
+    (None: the caller checks it, or ignores it) likewise. One frame for the whole call,
+    written out for its hook (`_CALL`): the deadline's bookkeeping is `within`'s, inlined,
+    and the usual result is accepted by `contract.fast_fits`'s straight-line test."""
+    # `hooks.name`, an attribute the interpreter caches, when `name` can be written so
+    function = f"hooks.{name}" if name.isidentifier() and not iskeyword(name) else "hook()"
+    names: dict[str, Any] = {
+        "hooks": hooks,
+        "hook": lambda: getattr(hooks, name),
+        "module": module,
+        "name": name,
+        "deadline": deadline,
+        "kinds": kinds or "",
+        "state": _STATE,
+        "watching": _Watch.watching,
+        "_get_ident": _get_ident,
+        "_clock": _clock,
+        "within": within,
+        "HookError": HookError,
+        "HookOverrun": HookOverrun,
+    }
+    if kinds is None:
+        check = "    return result\n"
+    else:
+        fast, more = fast_fits(kinds, "return result", "    ")
+        names |= more | {"fits": result_fits_each(kinds)}
+        check = fast + _REFUSE
+    source = _CALL.format(function=function, BEGAN=BEGAN, DEADLINE=DEADLINE) + check
+    call: Callable[..., Any] = compiled(source, "call", names, f"<hook {module}.{name}>")
+    call.__name__ = call.__qualname__ = name
+    return call
 
-    def call(owner: Any, rule: str, *args: Any) -> Any:
-        try:
-            function = getattr(hooks, name)
-            if _get_ident() != _MAIN:  # no signal reaches it: only a late result is refused
-                began = _clock()
-                result = function(*args)
-            else:
-                if _Watch.watcher is None:
-                    _start()
-                state[DEADLINE] = deadline
-                state[BEGAN] = began = _clock()
-                try:
-                    result = function(*args)
-                finally:
-                    state[BEGAN] = 0.0
+
+# A hook call. `watching` holds the main thread's id once its watcher runs: until then, and
+# in any other thread, `within` makes the call (it starts the watcher; elsewhere a late
+# result is refused).
+_CALL = """\
+def call(owner, rule, *args):
+    try:
+        if _get_ident() == watching[0]:
+            state[{DEADLINE}] = deadline
+            state[{BEGAN}] = began = _clock()
+            try:
+                result = {function}(*args)
+            finally:
+                state[{BEGAN}] = 0.0
             took = _clock() - began
             if took > deadline:
                 raise HookOverrun(deadline, took, interrupted=False)
-        except BaseException as error:  # one error naming the module, hook, rule and cycle
-            raise HookError(module, name, rule, owner.cycles) from error
-        if fits is not None and not fits(result):
-            raise HookError(module, name, rule, owner.cycles, result, kinds or "")
+        else:
+            result = within(deadline, {function}, *args)
+    except BaseException as error:
+        raise HookError(module, name, rule, owner.cycles) from error
+"""
+_REFUSE = """\
+    if fits(result):
         return result
-
-    call.__name__ = call.__qualname__ = name
-    return call
+    raise HookError(module, name, rule, owner.cycles, result, kinds)
+"""
 
 
 def _start() -> None:
@@ -132,6 +161,7 @@ def _start() -> None:
         _Watch.armed = True
     _Watch.watcher = threading.Thread(target=_watch, name="rcs-hook-deadline", daemon=True)
     _Watch.watcher.start()
+    _Watch.watching[0] = _MAIN  # type: ignore[assignment]
 
 
 def _watch() -> None:
