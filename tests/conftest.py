@@ -61,6 +61,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_graph_render",
             "test_harness_world",
             "test_hook_annotations",
+            "test_hook_deadline",
             "test_hooks_isolation",
             "test_hooks_read",
             "test_instances",

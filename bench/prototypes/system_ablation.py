@@ -38,7 +38,8 @@ import bench_system  # noqa: E402
 
 PERF_TAIL = re.compile(r"        # Its execution time: kept here.*?        return end\n", re.S)
 PUBLISH_NOW = re.compile(
-    r"        if last > self\.max_cycle_ns or .*?\n            self\.publish\(\).*?\n"
+    r"        if last > self\.max_cycle_ns or self\.single_step:\n(?:            .*\n)"
+    r"        elif last < self\.min_cycle_ns:\n(?:            .*\n)"
 )
 
 

@@ -4,24 +4,27 @@ Generated code calls every hook through `hook(...)`, one method of its controlle
 hook (`self.hook_co_position_for_sump(rule, *args)`): `hooks.name(*args)` within the hook's
 declared `deadline:` (else a few cycle periods), any failure raised as the module's
 `HookError`, the result checked against its targets' kinds. A watcher thread, started with
-the first call, looks every few milliseconds at the hook running in the main thread; once
-it has run past its deadline, the watcher sends the main thread a timer signal (SIGALRM)
-whose handler raises `HookOverrun` inside the hook, wherever it is: a Python loop,
-`time.sleep`, a wait on a lock or a socket (the call returns early with EINTR and the
-handler runs). The call turns it into the module's `HookError`, naming the hook, its rule,
-its cycle and the deadline. A hook that returns late anyway (it caught `HookOverrun` with a
-bare `except:`, or it ran outside the main thread) is refused when it returns: its result
-is never used. The same holds in the paced loop, in lockstep and in a harness, as long as
-hooks run in the main thread.
+the first call, looks every 20 ms (a quarter of any shorter hook deadline) among the main
+thread's frames for the call it is in (the innermost: its code's file is `WATCHED`, its
+locals say when it began); once that has run past its deadline, the watcher sends the main
+thread a timer signal (SIGALRM) whose handler raises `HookOverrun` inside the hook,
+wherever it is: a Python loop, `time.sleep`, a wait on a lock or a socket (the call
+returns early with EINTR and the handler runs). The call turns it into the module's
+`HookError`, naming the hook, its rule, its cycle and the deadline. A hook that returns
+late anyway (it caught `HookOverrun` with a bare `except:`, or it ran outside the main
+thread) is refused when it returns: its result is never used. The same holds in the paced
+loop, in lockstep and in a harness, as long as hooks run in the main thread.
 
 What it cannot interrupt, documented in docs/semantics.md: a hook that keeps the
 interpreter from running Python code - a long computation inside one C call (a big
 `sum()`, a regular expression that backtracks, a C extension that does not release the
 GIL), a signal blocked with `pthread_sigmask`, a process that replaced SIGALRM's handler
 for its own use (the deadline then only refuses the late result) - or a hook called
-outside the main thread, which only its late result can reveal. The watcher costs each
-hook call about 0.4 us (two reads of the clock), wakes up every 20 ms at most, and only
-signals a hook that has overrun.
+outside the main thread, which only its late result can reveal. A call writes nothing for
+the watcher and asks for no thread id: it keeps the clock readings it takes, before and
+after the hook, in its own frame (about 0.1 us a call; the whole call, result check
+included, 0.2-0.4 us more than calling the hook plainly: bench/prototypes/hook_call.py).
+The watcher wakes up every 20 ms at most, and only signals a hook that has overrun.
 
 Standard library only: copied verbatim into every generated package.
 """
@@ -29,59 +32,71 @@ Standard library only: copied verbatim into every generated package.
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable
-from types import ModuleType
+from keyword import iskeyword
+from types import FrameType, ModuleType
 from typing import Any, ClassVar, TypeVar
 
-from .contract import HookError, HookOverrun, result_fits, shared
+from .contract import (
+    HookError,
+    HookOverrun,
+    compiled,
+    fast_fits,
+    result_fits_each,
+    shared,
+)
 
 FACTORY_DEADLINE = 30.0  # seconds a `hooks_state` factory may take (a map to load, a file)
-TICK = 0.02  # seconds between two looks of the watcher (a quarter of a shorter deadline)
+TICK = 0.02  # seconds between two looks of the watcher (a quarter of any shorter deadline)
 
 _Result = TypeVar("_Result")
-_MAIN = threading.main_thread().ident
+_MAIN = threading.main_thread().ident or 0  # (a started thread has its id)
 _clock = time.monotonic
 
 
 @shared
 class _Watch:
-    """The hook the main thread is running, in `state`: when it began (0: none), its
-    deadline, when the watcher last signalled it. One per process (`shared`): every
-    generated package in it has its copy of this module, and only one of them can own
-    SIGALRM and the watcher. A list, so that a call changes items, never the class."""
+    """The watcher, one per process (`shared`): every generated package in it has its copy
+    of this module, and only one of them can own SIGALRM and the watcher. Lists, so that a
+    call changes items, never the class."""
 
-    state: ClassVar[list[float]] = [0.0, 0.0, 0.0]  # began, deadline, signalled
     watcher: threading.Thread | None = None
+    watching: ClassVar[list[int]] = [0]  # the main thread's id once the watcher runs
+    shortest: ClassVar[list[float]] = [TICK * 4]  # the shortest deadline of a hook made yet
     armed = False  # SIGALRM's handler is ours: an overrun can be interrupted
 
 
-_STATE = _Watch.state
-BEGAN, DEADLINE, SIGNALLED = 0, 1, 2
+# The file name of the code of every call under a deadline (`hook`'s and `within`'s): the
+# watcher finds the one the main thread is in among its frames, with its locals `began`
+# (0.0 once it has returned) and `deadline`.
+WATCHED = "<rcs.deadline>"
 _get_ident = threading.get_ident
 
 
 def within(deadline: float, hook: Callable[..., _Result], *args: Any) -> _Result:
     """`hook(*args)`, interrupted with `HookOverrun` once it has run `deadline` seconds
     (in the main thread); `HookOverrun` too when it returns later than that anyway."""
-    state = _STATE
-    if _get_ident() != _MAIN:  # no signal reaches it: only a late result is refused
-        began = _clock()
+    if not _Watch.watching[0] and _get_ident() == _MAIN:
+        _start()
+    result: _Result = _within(deadline, hook, args)
+    return result
+
+
+_WITHIN = """\
+def within(deadline, hook, args):
+    began = _clock()
+    try:
         result = hook(*args)
-    else:
-        if _Watch.watcher is None:
-            _start()
-        state[DEADLINE] = deadline
-        state[BEGAN] = began = _clock()
-        try:
-            result = hook(*args)
-        finally:
-            state[BEGAN] = 0.0
-    took = _clock() - began
+    finally:
+        took, began = _clock() - began, 0.0
     if took > deadline:
         raise HookOverrun(deadline, took, interrupted=False)
     return result
+"""
+_within = compiled(_WITHIN, "within", {"_clock": _clock, "HookOverrun": HookOverrun}, WATCHED)
 
 
 def hook(
@@ -91,37 +106,61 @@ def hook(
     `self.name(rule, *args)` calls `hooks.name(*args)` (looked up at each call) within
     `deadline` seconds; whatever it raises, an overrun too, is raised as a `HookError` naming
     the module, the hook, `rule` and the module's cycle; a result that does not fit `kinds`
-    (None: the caller checks it, or ignores it) likewise. One frame for the whole call: the
-    deadline's bookkeeping is `within`'s, inlined."""
-    fits = None if kinds is None else result_fits(kinds)
-    state = _STATE
+    (None: the caller checks it, or ignores it) likewise. One frame for the whole call,
+    written out for its hook (`_CALL`): the deadline's bookkeeping is `within`'s, inlined,
+    and the usual result is accepted by `contract.fast_fits`'s straight-line test."""
+    # `hooks.name`, an attribute the interpreter caches, when `name` can be written so
+    function = f"hooks.{name}" if name.isidentifier() and not iskeyword(name) else "hook()"
+    names: dict[str, Any] = {
+        "hooks": hooks,
+        "hook": lambda: getattr(hooks, name),
+        "module": module,
+        "name": name,
+        "deadline": deadline,
+        "kinds": kinds or "",
+        "watching": _Watch.watching,
+        "_clock": _clock,
+        "within": within,
+        "HookError": HookError,
+        "HookOverrun": HookOverrun,
+    }
+    if kinds is None:
+        check = "    return result\n"
+    else:
+        fast, more = fast_fits(kinds, "return result", "    ")
+        names |= more | {"fits": result_fits_each(kinds)}
+        check = fast + _REFUSE
+    call: Callable[..., Any] = compiled(
+        _CALL.format(function=function) + check, "call", names, WATCHED
+    )
+    call.__name__ = call.__qualname__ = name
+    _Watch.shortest[0] = min(_Watch.shortest[0], deadline)
+    return call
 
-    def call(owner: Any, rule: str, *args: Any) -> Any:
-        try:
-            function = getattr(hooks, name)
-            if _get_ident() != _MAIN:  # no signal reaches it: only a late result is refused
-                began = _clock()
-                result = function(*args)
-            else:
-                if _Watch.watcher is None:
-                    _start()
-                state[DEADLINE] = deadline
-                state[BEGAN] = began = _clock()
-                try:
-                    result = function(*args)
-                finally:
-                    state[BEGAN] = 0.0
-            took = _clock() - began
+
+# A hook call: `within`'s, inlined, once the watcher runs (`watching`); until then `within`
+# makes the call (it starts the watcher from the main thread).
+_CALL = """\
+def call(owner, rule, *args):
+    try:
+        if watching[0]:
+            began = _clock()
+            try:
+                result = {function}(*args)
+            finally:
+                took, began = _clock() - began, 0.0
             if took > deadline:
                 raise HookOverrun(deadline, took, interrupted=False)
-        except BaseException as error:  # one error naming the module, hook, rule and cycle
-            raise HookError(module, name, rule, owner.cycles) from error
-        if fits is not None and not fits(result):
-            raise HookError(module, name, rule, owner.cycles, result, kinds or "")
+        else:
+            result = within(deadline, {function}, *args)
+    except BaseException as error:
+        raise HookError(module, name, rule, owner.cycles) from error
+"""
+_REFUSE = """\
+    if fits(result):
         return result
-
-    call.__name__ = call.__qualname__ = name
-    return call
+    raise HookError(module, name, rule, owner.cycles, result, kinds)
+"""
 
 
 def _start() -> None:
@@ -132,28 +171,44 @@ def _start() -> None:
         _Watch.armed = True
     _Watch.watcher = threading.Thread(target=_watch, name="rcs-hook-deadline", daemon=True)
     _Watch.watcher.start()
+    _Watch.watching[0] = _MAIN
 
 
 def _watch() -> None:
-    state = _STATE
+    signalled = 0.0  # when it last signalled the main thread
     while True:
-        deadline = state[DEADLINE]
-        time.sleep(min(TICK, deadline / 4) if deadline > 0 else TICK)
-        began = state[BEGAN]
+        time.sleep(min(TICK, _Watch.shortest[0] / 4))
+        frames = sys._current_frames()  # (none kept while it sleeps)
+        if _MAIN not in frames:  # the main thread has ended: nothing to interrupt
+            return
+        began, deadline = running(frames.pop(_MAIN))
+        del frames
         if not began or not _Watch.armed:
             continue
         now = _clock()
         # Signalled again every deadline until the hook gives up (it may catch the first).
-        if now - began > state[DEADLINE] and now - max(state[SIGNALLED], began) > state[DEADLINE]:
-            state[SIGNALLED] = now
+        if now - began > deadline and now - max(signalled, began) > deadline:
+            signalled = now
             try:
-                signal.pthread_kill(_MAIN, signal.SIGALRM)  # type: ignore[arg-type]
+                signal.pthread_kill(_MAIN, signal.SIGALRM)
             except (OSError, ValueError):  # the main thread has ended: nothing to interrupt
                 return
 
 
-def _on_alarm(signum: int, frame: object) -> None:
+def running(frame: FrameType | None) -> tuple[float, float]:
+    """The call under a deadline that `frame` is in (the innermost): when it began (0.0:
+    none, or it has returned) and its deadline. Only the main thread's are watched: a
+    hook called from another thread has its late result refused, never a signal."""
+    while frame is not None:
+        if frame.f_code.co_filename == WATCHED:
+            names = frame.f_globals | frame.f_locals  # a hook's deadline: a global of its own
+            return names.get("began", 0.0), names.get("deadline", 0.0)
+        frame = frame.f_back
+    return 0.0, 0.0
+
+
+def _on_alarm(signum: int, frame: FrameType | None) -> None:
     """SIGALRM in the main thread: interrupt the hook that overran (ignored otherwise)."""
-    began, deadline = _STATE[BEGAN], _STATE[DEADLINE]
+    began, deadline = running(frame)
     if began and _clock() - began > deadline:
         raise HookOverrun(deadline, _clock() - began, interrupted=True)

@@ -12,7 +12,6 @@ import numbers
 import sys
 import weakref
 from collections.abc import Callable, Iterable
-from math import isfinite
 from struct import Struct
 from types import CodeType, ModuleType
 from typing import Any, ClassVar, NamedTuple, TypeVar
@@ -737,91 +736,87 @@ def kind_fits(token: str) -> Callable[[Any], bool]:
 
 def result_fits(kinds: str) -> Callable[[Any], bool]:
     """Whether a hook's result fits targets of `kinds`: one value of its kind, or a tuple of
-    exactly that many values of theirs."""
-    tokens = kind_tokens(kinds)
-    tests = tuple(kind_fits(token) for token in tokens)
+    exactly that many values of theirs. The usual result is accepted by `fast_fits`'s
+    straight-line test; anything else by `result_fits_each`, the test value by value."""
+    each = result_fits_each(kinds)
+    fast, names = fast_fits(kinds, "return True", "    ")
+    if not fast:
+        return each
+    source = f"def fits(result):\n{fast}    return each(result)\n"
+    fits: Callable[[Any], bool] = compiled(source, "fits", names | {"each": each}, "<fits>")
+    return fits
+
+
+def result_fits_each(kinds: str) -> Callable[[Any], bool]:
+    """`result_fits` written plainly: each value tested by its kind's `kind_fits`."""
+    tests = tuple(kind_fits(token) for token in kind_tokens(kinds))
     if len(tests) == 1:
         return tests[0]
     count = len(tests)
-    # A float target's usual value, a finite float, is checked inline (hooks run every
-    # cycle, and a call per value cost more than the hook in the simulators); anything
-    # else goes to its kind's own test, which gives the same answer for a float.
-    floats = tuple(token == "f" for token in tokens)
-    low, high = -FLOAT_MAX, FLOAT_MAX
 
     def fits(result: Any) -> bool:
-        if type(result) is not tuple or len(result) != count:
-            return False
-        for is_float, test, value in zip(floats, tests, result, strict=True):
-            if is_float and type(value) is float:
-                if not low <= value <= high:  # inf, -inf or nan
-                    return False
-            elif not test(value):
-                return False
-        return True
+        return (
+            type(result) is tuple
+            and len(result) == count
+            and all(test(value) for test, value in zip(tests, result, strict=True))
+        )
 
-    if not set(tokens) <= set(_EXACT):
-        return fits
-    # The usual result, a tuple of exactly the targets' Python types (float, int, bool), is
-    # accepted with a few C calls: its types at once, each int's range, and the sum of its
-    # values finite (a NaN or an infinity in it is not; a sum that overflowed falls
-    # through); any other result gets the check above, which accepts all this one does.
-    shape = tuple(_EXACT[token] for token in tokens)
-    if count in (2, 3):  # most hooks: each value's type and range tested by name (~2x faster)
-        return _exact_fits_of(shape, tuple(_RANGE[token] for token in tokens), fits)
-    ints = tuple(index for index, token in enumerate(tokens) if token == "i")
-
-    def exact_fits(result: Any) -> bool:
-        if type(result) is tuple and tuple(map(type, result)) == shape:
-            for index in ints:
-                if not INT_MIN <= result[index] <= INT_MAX:
-                    return False
-            if isfinite(sum(result)):
-                return True
-        return fits(result)
-
-    return exact_fits
+    return fits
 
 
-_EXACT = {"f": float, "i": int, "b": bool}  # a kind token -> the type its usual value has
-# a kind token -> the range a value of that type must be in (a NaN is in none)
-_RANGE = {"f": (-FLOAT_MAX, FLOAT_MAX), "i": (INT_MIN, INT_MAX), "b": (False, True)}
+# The test of a token's usual value (a float, int or bool of exactly that type) by name:
+# a subset of what its `kind_fits` accepts, written out by `fast_fits`; a float target's
+# values are tested finite all at once (their sum times 0.0 is 0.0: never for a NaN or an
+# infinity; a sum that overflows is left to the test value by value).
+_FAST_TYPE = {"f": "float", "i": "int", "b": "bool", "e": "int"}
 
 
-def _exact_fits_of(
-    shape: tuple[type, ...], ranges: tuple[tuple[Any, Any], ...], fits: Callable[[Any], bool]
-) -> Callable[[Any], bool]:
-    """`result_fits`'s test of a result of 2 or 3 values: a tuple of exactly the types of
-    `shape`, each value in its range, is accepted by its values' names (no tuple of types
-    built, no sum); anything else is `fits`'s to judge, which accepts all this one does."""
-    if len(shape) == 2:
-        (t0, t1), ((l0, h0), (l1, h1)) = shape, ranges
+def fast_fits(kinds: str, accept: str, indent: str) -> tuple[str, dict[str, Any]]:
+    """Straight-line Python source (at `indent`) that runs `accept` when `result` is a usual
+    result of `kinds` (exactly a float, an int, a bool, of each target's type, in its
+    range): what it accepts, `result_fits_each` accepts too; whatever it lets through is
+    for that one to judge. '' when there is no such shortcut (a single string). With the
+    names the source uses. Generated code's hook calls run it every cycle (rcs/deadline.py):
+    a call per value cost more than most hooks."""
+    tokens = kind_tokens(kinds)
+    for token in tokens:
+        kind_fits(token)  # an unknown kind: its ValueError, before any source is written
+    names: dict[str, Any] = {"INT_MIN": INT_MIN, "INT_MAX": INT_MAX}
+    tuple_of = len(tokens) > 1  # a tuple, unpacked by name (a wrong length: not usual)
+    values = [f"v{index}" for index in range(len(tokens))] if tuple_of else ["result"]
+    types, ranges, floats = [], [], []
+    for index, (token, value) in enumerate(zip(tokens, values, strict=True)):
+        if token[0] == "s":  # no shortcut: its own test
+            if len(tokens) == 1:
+                return "", names
+            names[f"test{index}"] = kind_fits(token)
+            ranges.append(f"test{index}({value})")
+            continue
+        types.append(f"type({value}) is {_FAST_TYPE[token[0]]}")
+        if token == "f":
+            floats.append(value)
+        elif token == "i":
+            ranges.append(f"INT_MIN <= {value} <= INT_MAX")
+        elif token[0] == "e":
+            ranges.append(f"0 <= {value} < {int(token[1:])}")
+    if floats:
+        ranges.append(f"({' + '.join(floats)}) * 0.0 == 0.0")
+    tests = types + ranges
+    lines = [f"if {' and '.join(tests)}:", f"    {accept}"]
+    if tuple_of:
+        unpack = ["if type(result) is tuple:", "    try:", f"        {', '.join(values)} = result"]
+        lines = [*unpack, "    except ValueError:", "        pass", "    else:"] + [
+            f"        {line}" for line in lines
+        ]
+    return "".join(f"{indent}{line}\n" for line in lines), names
 
-        def fits2(result: Any) -> bool:
-            if type(result) is tuple and len(result) == 2:
-                a, b = result
-                if type(a) is t0 and type(b) is t1 and l0 <= a <= h0 and l1 <= b <= h1:
-                    return True
-            return fits(result)
 
-        return fits2
-    (t0, t1, t2), ((l0, h0), (l1, h1), (l2, h2)) = shape, ranges
-
-    def fits3(result: Any) -> bool:
-        if type(result) is tuple and len(result) == 3:
-            a, b, c = result
-            if (
-                type(a) is t0
-                and type(b) is t1
-                and type(c) is t2
-                and l0 <= a <= h0
-                and l1 <= b <= h1
-                and l2 <= c <= h2
-            ):
-                return True
-        return fits(result)
-
-    return fits3
+def compiled(source: str, name: str, names: dict[str, Any], filename: str) -> Any:
+    """Function `name` of `source` (written by this runtime from checked tokens, never from
+    input), with `names` as its globals."""
+    scope = dict(names)
+    exec(compile(source, filename, "exec"), scope)  # noqa: S102
+    return scope[name]
 
 
 def plan_problem(steps: object, kinds: str, capacity: int) -> str:
