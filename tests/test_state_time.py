@@ -9,10 +9,8 @@ from __future__ import annotations
 import json
 from collections import Counter
 from pathlib import Path
-from struct import Struct
 
 from rcsgen.runtime.block import Block
-from rcsgen.runtime.contract import STATUS_FIELDS, struct_format
 from rcsgen.runtime.operate.ctl import main
 from rcsgen.runtime.state_time import shares, totals
 from rcsgen.tools.harness import Harness
@@ -94,17 +92,18 @@ def test_a_restarted_process_keeps_the_counts_and_closes_what_it_left_open():
         assert totals(dict(record.read(harness.buf)), 5) == {**was, "S0": was["S0"] + 5}
 
 
-def test_after_a_settled_look_only_the_modules_whose_status_word_moved_are_looked_at():
-    """The loop looks at a module's state only in a cycle in which the word holding it (and
-    its rule) moved in the block, once a look has left every clock at its module's state:
-    every other module's state is as the last look found it."""
+def test_each_module_tells_its_clock_as_it_writes_its_status_and_the_loop_looks_at_none():
+    """A generated module changes its state only in a cycle that writes its status record,
+    and tells its clock (`on_state`) as it does: the loop reads no module's state after a
+    cycle, and after every cycle each clock is at its module's state, from the cycle it
+    entered it (the trace's counts: the first test)."""
     with Harness.load(ROOT / "generated" / "miner", ROOT / "specs" / "miner", "pc1") as harness:
         harness.command("co", "SUMP_SHEAR_CUSP")
         harness.cycle(3)
         process = harness.processes["pc1"]
-        status, looked = harness.layout.STATUS_OUT, Counter()
+        looked: Counter[str] = Counter()
 
-        class Watched:  # a module whose state the loop's look reads, counted
+        class Watched:  # a module whose state a look of the loop would read, counted
             def __init__(self, name: str, module: object) -> None:
                 self.name, self.module = name, module
 
@@ -113,22 +112,15 @@ def test_after_a_settled_look_only_the_modules_whose_status_word_moved_are_looke
                 looked[self.name] += 1
                 return int(self.module.state)
 
-        names = list(process.timed)
-        process.timed = {n: (clock, Watched(n, m)) for n, (clock, m) in process.timed.items()}
-        process._timed_pairs = tuple(process.timed.values())
-        words = process.words
-        names_in_record = [field for field, _ in STATUS_FIELDS]
-        state_at = Struct(struct_format(STATUS_FIELDS[: names_in_record.index("state")])).size
-        word_of = {n: (status[n].offset + state_at) >> 3 for n in names}  # its state and rule
-
-        def state_words() -> dict[str, int]:
-            return {n: words[word_of[n]] for n in names}
-
-        moved: Counter[str] = Counter()
+        timed = dict(process.timed)
+        process.timed = {n: (clock, Watched(n, m)) for n, (clock, m) in timed.items()}
+        assert timed and not process._looked  # every module of pc1 tells its clock
+        changed: Counter[str] = Counter()
         for _ in range(60):
-            before = state_words()
+            before = {n: int(m.state) for n, (_, m) in timed.items()}
             harness.cycle()
-            after = state_words()
-            moved.update(n for n in names if after[n] != before[n])
-        assert sum(moved.values()) > 0, "the run moved no status word: nothing was tested"
-        assert looked and all(looked[n] <= moved[n] for n in names), (looked, moved)
+            for name, (clock, module) in timed.items():
+                assert clock.state == module.state, name
+                changed[name] += before[name] != module.state
+        assert sum(changed.values()) > 0, "no module changed state: nothing was tested"
+        assert not looked, looked

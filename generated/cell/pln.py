@@ -9,7 +9,16 @@ from .layout import (
     PLN_STATUS,
     PLN_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, performance, words
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    performance,
+    untimed,
+    words,
+)
 
 # Commands pln accepts (the code written to its command buffer).
 INIT = 1
@@ -62,6 +71,7 @@ class PlnController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "result_x",
@@ -86,6 +96,7 @@ class PlnController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -186,6 +197,7 @@ class PlnController:
                 words[PLN_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
         # Its execution time: kept here, published by its process every PERF_INTERVAL
         end = perf_counter_ns()
         self.last_cycle_ns = last = end - cycle_start

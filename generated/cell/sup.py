@@ -22,6 +22,7 @@ from .rcs.contract import (
     PERF,
     READ_TRIES,
     performance,
+    untimed,
     words,
 )
 
@@ -82,6 +83,7 @@ class SupController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "pln_arg_step",
@@ -115,6 +117,7 @@ class SupController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_step: int = 0
         self.var_waited: int = 0
         self.resume()
@@ -246,6 +249,7 @@ class SupController:
             words[SUP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.pln_command_num != self.pln_written:  # a command was sent
             seq, number = PLN_COMMAND.unpack_from(buf, PLN_COMMAND_AT)[:2]
             if number != self.pln_written:  # an operator's command came meanwhile:

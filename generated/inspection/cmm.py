@@ -29,6 +29,7 @@ from .rcs.contract import (
     caused,
     performance,
     plan_problem,
+    untimed,
     words,
 )
 from .rcs.deadline import hook
@@ -108,6 +109,7 @@ class CmmController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "plan_points",
@@ -159,6 +161,7 @@ class CmmController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.resume()
         self.plan_points: list[tuple[float, float, float]] = []  # plan points: no steps yet
         self.plan_points_steps = self.plan_points_replans_left = 0
@@ -314,6 +317,7 @@ class CmmController:
                 words[CMM_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.prim_command_num != self.prim_written:  # a command was sent
                 seq, number = PRIM_COMMAND.unpack_from(buf, PRIM_COMMAND_AT)[:2]
                 if number != self.prim_written:  # an operator's command came meanwhile:

@@ -25,6 +25,7 @@ from .rcs.contract import (
     decode_text,
     performance,
     plan_problem,
+    untimed,
     words,
 )
 from .rcs.deadline import hook
@@ -91,6 +92,7 @@ class FxController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "op_arg_clamps",
         "op_arg_setup",
         "op_command",
@@ -135,6 +137,7 @@ class FxController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
         self.plan_fixturing: list[tuple[int, int]] = []  # plan fixturing: no steps yet
@@ -275,6 +278,7 @@ class FxController:
                 words[FX_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.op_command_num != self.op_written:  # a command was sent
                 seq, number = OP_FX_COMMAND.unpack_from(buf, OP_FX_COMMAND_AT)[:2]
                 if number != self.op_written:  # an operator's command came meanwhile:

@@ -23,6 +23,7 @@ from .rcs.contract import (
     decode_text,
     encode_text,
     performance,
+    untimed,
     words,
 )
 from .rcs.override import held
@@ -80,6 +81,7 @@ class JpController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "result_features",
@@ -110,6 +112,7 @@ class JpController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_features: int = 0
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
@@ -231,6 +234,7 @@ class JpController:
                 words[JP_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             # a rule fired (it may have set world outputs), or a field is forced or latched safe
             if self.rule or buf[OVERRIDDEN_AT]:
                 out = (encode_text(self.world_pdm_request, 32), self.world_pdm_seq)

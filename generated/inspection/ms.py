@@ -27,6 +27,7 @@ from .rcs.contract import (
     decode_text,
     performance,
     plan_problem,
+    untimed,
     words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
@@ -122,6 +123,7 @@ class MsController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "plan_schedule",
@@ -171,6 +173,7 @@ class MsController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_program, settings or {})
         except BaseException as error:
@@ -346,6 +349,7 @@ class MsController:
                 words[MS_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.tl_command_num != self.tl_written:  # a command was sent
                 seq, number = TL_COMMAND.unpack_from(buf, TL_COMMAND_AT)[:2]
                 if number != self.tl_written:  # an operator's command came meanwhile:

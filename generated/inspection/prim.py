@@ -20,6 +20,7 @@ from .rcs.contract import (
     PERF,
     caused,
     performance,
+    untimed,
     words,
 )
 
@@ -81,6 +82,7 @@ class PrimController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -113,6 +115,7 @@ class PrimController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -244,6 +247,7 @@ class PrimController:
                 words[PRIM_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.servo_command_num != self.servo_written:  # a command was sent
                 seq, number = SERVO_COMMAND.unpack_from(buf, SERVO_COMMAND_AT)[:2]
                 if number != self.servo_written:  # an operator's command came meanwhile:

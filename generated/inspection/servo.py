@@ -14,7 +14,17 @@ from .layout import (
     WORLD_MOTOR_Y_AT,
     WORLD_MOTOR_Z_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, performance, words
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    performance,
+    untimed,
+    words,
+)
 from .rcs.override import held
 
 # Commands servo accepts (the code written to its command buffer).
@@ -82,6 +92,7 @@ class ServoController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -111,6 +122,7 @@ class ServoController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -225,6 +237,7 @@ class ServoController:
                 words[SERVO_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             # a rule fired (it may have set world outputs), or a field is forced or latched safe
             if self.rule or buf[OVERRIDDEN_AT]:
                 out = (self.world_motor_x, self.world_motor_y, self.world_motor_z)

@@ -27,6 +27,7 @@ from .rcs.contract import (
     decode_text,
     encode_text,
     performance,
+    untimed,
     words,
 )
 from .rcs.deadline import hook
@@ -128,6 +129,7 @@ class ShopController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "result_accepted",
@@ -174,6 +176,7 @@ class ShopController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_good: int = 0
         self.var_bad: int = 0
         self.var_scheduled: int = 0
@@ -343,6 +346,7 @@ class ShopController:
             words[SHOP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.wc_command_num != self.wc_written:  # a command was sent
             seq, number = WC_COMMAND.unpack_from(buf, WC_COMMAND_AT)[:2]
             if number != self.wc_written:  # an operator's command came meanwhile:

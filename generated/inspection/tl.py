@@ -20,6 +20,7 @@ from .rcs.contract import (
     PERF,
     caused,
     performance,
+    untimed,
     words,
 )
 
@@ -82,6 +83,7 @@ class TlController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "op_arg_clamps",
         "op_arg_setup",
         "op_command",
@@ -113,6 +115,7 @@ class TlController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -239,6 +242,7 @@ class TlController:
                 words[TL_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.op_command_num != self.op_written:  # a command was sent
                 seq, number = OP_TL_COMMAND.unpack_from(buf, OP_TL_COMMAND_AT)[:2]
                 if number != self.op_written:  # an operator's command came meanwhile:

@@ -24,6 +24,7 @@ from .rcs.contract import (
     decode_text,
     encode_text,
     performance,
+    untimed,
     words,
 )
 from .rcs.deadline import hook
@@ -92,6 +93,7 @@ class WcController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "result_accepted",
@@ -133,6 +135,7 @@ class WcController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_job: int = 0
         self.var_program: str = ""
         self.resume()
@@ -269,6 +272,7 @@ class WcController:
                 words[WC_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.ws_command_num != self.ws_written:  # a command was sent
                 seq, number = WS_COMMAND.unpack_from(buf, WS_COMMAND_AT)[:2]
                 if number != self.ws_written:  # an operator's command came meanwhile:

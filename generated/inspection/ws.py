@@ -28,6 +28,7 @@ from .rcs.contract import (
     encode_text,
     performance,
     plan_problem,
+    untimed,
     words,
 )
 from .rcs.deadline import hook
@@ -137,6 +138,7 @@ class WsController:
         "ms_status",
         "ms_status_num",
         "ms_written",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "plan_setups",
@@ -175,6 +177,7 @@ class WsController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_measured: int = 0
         self.resume()
         self.plan_setups: list[tuple[int, int, int]] = []  # plan setups: no steps yet
@@ -341,6 +344,7 @@ class WsController:
                 words[WS_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.ms_command_num != self.ms_written:  # a command was sent
                 seq, number = MS_COMMAND.unpack_from(buf, MS_COMMAND_AT)[:2]
                 if number != self.ms_written:  # an operator's command came meanwhile:

@@ -19,6 +19,7 @@ from .rcs.contract import (
     PERF,
     STATUS,
     performance,
+    untimed,
     words,
 )
 from .rcs.override import held
@@ -65,6 +66,7 @@ class CdController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -88,6 +90,7 @@ class CdController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -186,6 +189,7 @@ class CdController:
                 words[CD_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             # a rule fired (it may have set world outputs), or a field is forced or latched safe
             if self.rule or buf[OVERRIDDEN_AT]:
                 out = (self.world_drum_on_cmd,)

@@ -29,6 +29,7 @@ from .rcs.contract import (
     PERF,
     STATUS,
     performance,
+    untimed,
     words,
 )
 from .rcs.deadline import hook
@@ -128,6 +129,7 @@ class CoController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -177,6 +179,7 @@ class CoController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_distance: float = 0.0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -327,6 +330,7 @@ class CoController:
                 words[CO_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.cr_command_num != self.cr_written:  # a command was sent
                 seq, number = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)[:2]
                 if number != self.cr_written:  # an operator's command came meanwhile:

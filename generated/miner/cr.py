@@ -23,6 +23,7 @@ from .rcs.contract import (
     PERF,
     STATUS,
     performance,
+    untimed,
     words,
 )
 
@@ -98,6 +99,7 @@ class CrController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -122,6 +124,7 @@ class CrController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -248,6 +251,7 @@ class CrController:
                 words[CR_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.gh_command_num != self.gh_written:  # a command was sent
                 seq, number = GH_COMMAND.unpack_from(buf, GH_COMMAND_AT)[:2]
                 if number != self.gh_written:  # an operator's command came meanwhile:

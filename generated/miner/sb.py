@@ -24,6 +24,7 @@ from .rcs.contract import (
     PERF,
     STATUS,
     performance,
+    untimed,
     words,
 )
 from .rcs.override import held
@@ -113,6 +114,7 @@ class SbController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -147,6 +149,7 @@ class SbController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_start_x: float = 0.0
         self.var_start_y: float = 0.0
         self.resume()
@@ -280,6 +283,7 @@ class SbController:
                 words[SB_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.co_command_num != self.co_written:  # a command was sent
                 seq, number = CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)[:2]
                 if number != self.co_written:  # an operator's command came meanwhile:

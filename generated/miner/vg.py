@@ -24,6 +24,7 @@ from .rcs.contract import (
     READ_TRIES,
     STATUS,
     performance,
+    untimed,
     words,
 )
 from .rcs.deadline import hook
@@ -107,6 +108,7 @@ class VgController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "pp_arg_x",
@@ -159,6 +161,7 @@ class VgController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_move: int = 0
         self.var_ahead: float = 0.0
         self.var_turn: float = 0.0
@@ -296,6 +299,7 @@ class VgController:
             words[VG_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.pp_command_num != self.pp_written:  # a command was sent
             seq, number = PP_COMMAND.unpack_from(buf, PP_COMMAND_AT)[:2]
             if number != self.pp_written:  # an operator's command came meanwhile:

@@ -19,6 +19,7 @@ from .rcs.contract import (
     PERF,
     STATUS,
     performance,
+    untimed,
     words,
 )
 from .rcs.override import held
@@ -72,6 +73,7 @@ class BmController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -96,6 +98,7 @@ class BmController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -195,6 +198,7 @@ class BmController:
                 words[BM_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             # a rule fired (it may have set world outputs), or a field is forced or latched safe
             if self.rule or buf[OVERRIDDEN_AT]:
                 out = (self.world_boom_rate_cmd,)

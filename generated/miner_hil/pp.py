@@ -27,6 +27,7 @@ from .rcs.contract import (
     STATUS,
     HookError,
     performance,
+    untimed,
     words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
@@ -91,6 +92,7 @@ class PpController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -126,6 +128,7 @@ class PpController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_planner, settings or {})
         except BaseException as error:
@@ -227,6 +230,7 @@ class PpController:
             words[PP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or buf[OVERRIDDEN_AT]:
             out = (self.world_path_ok, self.world_wp_x, self.world_wp_y, self.world_wp_last)

@@ -20,6 +20,7 @@ from .rcs.contract import (
     READ_TRIES,
     STATUS,
     performance,
+    untimed,
     words,
 )
 
@@ -70,6 +71,7 @@ class SecController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -99,6 +101,7 @@ class SecController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -210,6 +213,7 @@ class SecController:
             words[SEC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.sb_command_num != self.sb_written:  # a command was sent
             seq, number = SB_COMMAND.unpack_from(buf, SB_COMMAND_AT)[:2]
             if number != self.sb_written:  # an operator's command came meanwhile:

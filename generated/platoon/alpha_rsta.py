@@ -13,7 +13,17 @@ from .layout import (
     ALPHA_RSTA_STATUS,
     ALPHA_RSTA_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, performance, words
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    performance,
+    untimed,
+    words,
+)
 from .rcs.deadline import hook
 
 # Commands alpha_rsta accepts (the code written to its command buffer).
@@ -66,6 +76,7 @@ class AlphaRstaController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "result_contact",
@@ -101,6 +112,7 @@ class AlphaRstaController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_bearing: float = 0.0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -223,6 +235,7 @@ class AlphaRstaController:
                 words[ALPHA_RSTA_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.alpha_pan_command_num != self.alpha_pan_written:  # a command was sent
                 seq, number = ALPHA_PAN_COMMAND.unpack_from(buf, ALPHA_PAN_COMMAND_AT)[:2]
                 if number != self.alpha_pan_written:  # an operator's command came meanwhile:

@@ -23,6 +23,7 @@ from .rcs.contract import (
     READ_TRIES,
     caused,
     performance,
+    untimed,
     words,
 )
 
@@ -105,6 +106,7 @@ class BravoController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "result_contact",
@@ -131,6 +133,7 @@ class BravoController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_cover_x: float = 0.0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -280,6 +283,7 @@ class BravoController:
             words[BRAVO_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.bravo_loco_command_num != self.bravo_loco_written:  # a command was sent
             seq, number = BRAVO_LOCO_COMMAND.unpack_from(buf, BRAVO_LOCO_COMMAND_AT)[:2]
             if number != self.bravo_loco_written:  # an operator's command came meanwhile:

@@ -21,6 +21,7 @@ from .rcs.contract import (
     PERF,
     STATUS,
     performance,
+    untimed,
     words,
 )
 from .rcs.override import held
@@ -78,6 +79,7 @@ class BravoDriveController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -106,6 +108,7 @@ class BravoDriveController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.world_set = False  # an every_cycle rule set a world output
         self.var_steering: bool = True
         self.resume()
@@ -199,6 +202,7 @@ class BravoDriveController:
             words[BRAVO_DRIVE_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
             self.world_set = False

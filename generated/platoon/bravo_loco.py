@@ -20,6 +20,7 @@ from .rcs.contract import (
     PERF,
     caused,
     performance,
+    untimed,
     words,
 )
 
@@ -86,6 +87,7 @@ class BravoLocoController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -111,6 +113,7 @@ class BravoLocoController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.held_move_to_ahead_1 = 0  # cycles its rule's `when` has held in a row (for:)
         self.held_move_to_back_1 = 0  # cycles its rule's `when` has held in a row (for:)
@@ -238,6 +241,7 @@ class BravoLocoController:
                 words[BRAVO_LOCO_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.bravo_drive_command_num != self.bravo_drive_written:  # a command was sent
                 seq, number = BRAVO_DRIVE_COMMAND.unpack_from(buf, BRAVO_DRIVE_COMMAND_AT)[:2]
                 if number != self.bravo_drive_written:  # an operator's command came meanwhile:

@@ -23,6 +23,7 @@ from .rcs.contract import (
     READ_TRIES,
     caused,
     performance,
+    untimed,
     words,
 )
 
@@ -104,6 +105,7 @@ class PlController:
         "ldr_written",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "result_alone",
@@ -142,6 +144,7 @@ class PlController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -299,6 +302,7 @@ class PlController:
             words[PL_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.sec_command_num != self.sec_written:  # a command was sent
             seq, number = SEC_COMMAND.unpack_from(buf, SEC_COMMAND_AT)[:2]
             if number != self.sec_written:  # an operator's command came meanwhile:

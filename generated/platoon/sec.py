@@ -23,6 +23,7 @@ from .rcs.contract import (
     READ_TRIES,
     caused,
     performance,
+    untimed,
     words,
 )
 
@@ -129,6 +130,7 @@ class SecController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "result_alone",
@@ -160,6 +162,7 @@ class SecController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.var_reports: int = 0
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.alpha_lost = False  # set by the runtime while its process is lost
@@ -346,6 +349,7 @@ class SecController:
             words[SEC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.alpha_command_num != self.alpha_written:  # a command was sent
             seq, number = ALPHA_COMMAND.unpack_from(buf, ALPHA_COMMAND_AT)[:2]
             if number != self.alpha_written:  # an operator's command came meanwhile:

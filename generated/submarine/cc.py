@@ -35,6 +35,7 @@ from .rcs.contract import (
     encode_text,
     performance,
     plan_problem,
+    untimed,
     words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
@@ -159,6 +160,7 @@ class CcController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "plan_route",
@@ -210,6 +212,7 @@ class CcController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_mission, settings or {})
         except BaseException as error:
@@ -375,6 +378,7 @@ class CcController:
             words[CC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.sm_command_num != self.sm_written:  # a command was sent
             seq, number = SM_COMMAND.unpack_from(buf, SM_COMMAND_AT)[:2]
             if number != self.sm_written:  # an operator's command came meanwhile:

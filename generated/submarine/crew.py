@@ -20,6 +20,7 @@ from .rcs.contract import (
     READ_TRIES,
     STATUS,
     performance,
+    untimed,
     words,
 )
 from .rcs.override import held
@@ -72,6 +73,7 @@ class CrewController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -97,6 +99,7 @@ class CrewController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.world_set = False  # an every_cycle rule set a world output
         self.held_every_cycle_1 = 0  # cycles its every_cycle rule's `when` has held (for:)
         self.resume()
@@ -188,6 +191,7 @@ class CrewController:
             words[CREW_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
             self.world_set = False

@@ -26,6 +26,7 @@ from .rcs.contract import (
     HookError,
     caused,
     performance,
+    untimed,
     words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
@@ -126,6 +127,7 @@ class HelmController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "result_at_goal",
@@ -192,6 +194,7 @@ class HelmController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.world_set = False  # an every_cycle rule set a world output
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_cmac, settings or {})
@@ -351,6 +354,7 @@ class HelmController:
             words[HELM_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.rudder_command_num != self.rudder_written:  # a command was sent
             seq, number = RUDDER_COMMAND.unpack_from(buf, RUDDER_COMMAND_AT)[:2]
             if number != self.rudder_written:  # an operator's command came meanwhile:

@@ -24,6 +24,7 @@ from .rcs.contract import (
     PERF,
     caused,
     performance,
+    untimed,
     words,
 )
 from .rcs.override import held
@@ -113,6 +114,7 @@ class PropController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -139,6 +141,7 @@ class PropController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.world_set = False  # an every_cycle rule set a world output
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -260,6 +263,7 @@ class PropController:
             words[PROP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.eoow_command_num != self.eoow_written:  # a command was sent
             seq, number = EOOW_PROP_COMMAND.unpack_from(buf, EOOW_PROP_COMMAND_AT)[:2]
             if number != self.eoow_written:  # an operator's command came meanwhile:

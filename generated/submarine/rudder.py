@@ -19,6 +19,7 @@ from .rcs.contract import (
     PERF,
     STATUS,
     performance,
+    untimed,
     words,
 )
 
@@ -70,6 +71,7 @@ class RudderController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "perf_seq",
         "perf_single_step_num",
         "rudder_sim_command",
@@ -98,6 +100,7 @@ class RudderController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -206,6 +209,7 @@ class RudderController:
                 words[RUDDER_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+                self.on_state(self.state)  # a state changes only in a cycle that writes it
             if self.rudder_sim_command_num != self.rudder_sim_written:  # a command was sent
                 seq, number = RUDDER_SIM_COMMAND.unpack_from(buf, RUDDER_SIM_COMMAND_AT)[:2]
                 if number != self.rudder_sim_written:  # an operator's command came meanwhile:

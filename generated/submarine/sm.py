@@ -36,6 +36,7 @@ from .rcs.contract import (
     PERF,
     caused,
     performance,
+    untimed,
     words,
 )
 from .rcs.deadline import hook
@@ -196,6 +197,7 @@ class SmController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "on_state",
         "ood_arg_depth",
         "ood_arg_ordered",
         "ood_command",
@@ -259,6 +261,7 @@ class SmController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.on_state = untimed  # its process's time-in-state clock, once it has one
         self.world_set = False  # an every_cycle rule set a world output
         self.var_goal_x: float = 0.0
         self.var_goal_y: float = 0.0
@@ -443,6 +446,7 @@ class SmController:
             words[SM_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+            self.on_state(self.state)  # a state changes only in a cycle that writes it
         if self.helm_command_num != self.helm_written:  # a command was sent
             seq, number = HELM_COMMAND.unpack_from(buf, HELM_COMMAND_AT)[:2]
             if number != self.helm_written:  # an operator's command came meanwhile:

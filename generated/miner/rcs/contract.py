@@ -343,6 +343,11 @@ LIVENESS_WORDS = tuple(
 )
 
 
+def untimed(state: int) -> None:
+    """A module's `on_state` until its process gives it its time-in-state clock's
+    (rcs/loop.py, rcs/state_time.py): nothing to tell."""
+
+
 def performance(at: int) -> Callable[[Any], None]:
     """The `publish` method of a module whose performance buffer is at `at` (PERF_INTERVAL):
     its longest and shortest cycle brought up to its last, then the buffer written from

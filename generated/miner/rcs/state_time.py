@@ -2,18 +2,19 @@
 """State time: how many cycles each controller has spent in each state since start.
 
 The second paper's support facility reports the percentage of execution time per state; a
-state table's cycle is its unit of execution time, so the loop counts, for each cycle of a
-process, one cycle for the state each of its controllers ends the cycle in (its `state`:
-NOP while idle), whatever its mode (a controller held by `stop` stays in its state, and its
-time there goes on). The block holds, per controller and stand-in (`TIME_<NAME>`), the state
-it is in, the process cycle it entered it (`since`) and the cycles spent in each state code
-before that (NOP first, in STATE_NAMES order): the loop writes it only when a controller
-changes state, so a cycle in which no state changes costs one comparison per controller and
-no store. A reader adds the open interval, the process's heartbeat (cycles run) less
-`since` (`totals`). A restarted process closes the interval its predecessor left open at
-that one's last heartbeat; a controller whose stand-in runs in its place (or the stand-in,
-while it does not) has no open interval. Standard library only: copied verbatim into every
-generated package.
+state table's cycle is its unit of execution time, so a clock per controller counts, for
+each cycle of its process, one cycle for the state the controller ends the cycle in (its
+`state`: NOP while idle), whatever its mode (a controller held by `stop` stays in its state,
+and its time there goes on). The block holds, per controller and stand-in (`TIME_<NAME>`),
+the state it is in, the process cycle it entered it (`since`) and the cycles spent in each
+state code before that (NOP first, in STATE_NAMES order): it is written only when a
+controller changes state, which a generated controller does only in a cycle that writes its
+status record, telling its clock as it does (`on_state`, rcs/loop.py), so a cycle in which
+no state changes costs nothing. A reader adds the open interval, the process's heartbeat
+(cycles run) less `since` (`totals`). A restarted process closes the interval its
+predecessor left open at that one's last heartbeat; a controller whose stand-in runs in its
+place (or the stand-in, while it does not) has no open interval. Standard library only:
+copied verbatim into every generated package.
 """
 
 from __future__ import annotations

@@ -20,8 +20,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping
-from itertools import compress
-from operator import itemgetter, ne
+from operator import itemgetter
 from struct import Struct
 from time import perf_counter_ns as _module_clock  # the clock generated modules read
 from types import MappingProxyType, ModuleType
@@ -39,7 +38,6 @@ from .contract import (
     PROCESS_FIELDS,
     RUNNING,
     STARTING,
-    STATUS_FIELDS,
     STOPPED,
     counted,
     field_names,
@@ -238,6 +236,7 @@ class Process:
             layout, buf, [*plan.modules, *(s for s, _ in plan.stand_ins.values())], before
         )
         self.timed: dict[str, tuple[StateClock, Any]] = {}
+        self._looked: dict[str, tuple[StateClock, Any]] = {}  # timed, but cannot tell
         self.io_steps: tuple[tuple[Callable[[], None], ...], ...] = ((), ())
         self._choose(self._simulate_flags())
         # The control record: this process is its only writer (the launcher marks it dead).
@@ -317,11 +316,9 @@ class Process:
             if id(clock) not in running:
                 clock.enter(self.block.buf, PAUSED, self.cycle)
         self.timed = timed
-        self._timed_pairs = tuple(timed.values())  # in the order _status_states reads them
+        self._looked = self._tell_states(timed)
         self.steps = tuple(module.run_cycle for module in modules.values())
         self._publishers = tuple(m.publish for m in modules.values() if hasattr(m, "publish"))
-        self._states_seen = None
-        self._block_states = self._status_states(timed)
 
     def _hand_over(self, modules: dict[str, Module]) -> None:
         """Modules `modules` take over from the running ones: one leaving publishes its
@@ -333,30 +330,29 @@ class Process:
             if self.modules and self.modules.get(name) is not module:
                 module.resume()
 
-    def _status_states(self, timed: dict[str, tuple[StateClock, Any]]) -> Any:
-        """What reads, in one C call, the 8-byte word holding the state (and the rule) of
-        each timed module's status record; None to look at every module every cycle. A
-        generated controller or stand-in changes its state only in a cycle that writes its
-        status record (post_process writes it whenever a rule fired or status_dirty is set,
-        as every state change sets one), so while those words are as the last look left
-        them, no module's state has changed since, and after a look that left every clock at
-        its module's state, only the modules whose word moved need a look. Anything else (an
-        operator module, a test's stand-in) is looked at every cycle."""
-        status = getattr(self.layout, "STATUS_OUT", {})
-        if not timed or not all(
-            name in status and hasattr(module, "status_dirty")
-            for name, (_, module) in timed.items()
-        ):
-            return None
-        names = [n for n, _ in STATUS_FIELDS]
-        state_at = Struct(struct_format(STATUS_FIELDS[: names.index("state")])).size
-        if state_at % 8:  # (a layout whose state does not begin a word: look every cycle)
-            return None
-        indices = [(status[name].offset + state_at) >> 3 for name in timed]
-        if len(indices) == 1:  # (itemgetter of one index gives a word, not a tuple)
-            index = indices[0]
-            return lambda words: (words[index],)
-        return itemgetter(*indices)
+    def _tell_states(self, timed: dict[str, tuple[StateClock, Any]]) -> dict[str, Any]:
+        """Each timed module's clock, given to it: a generated controller or stand-in changes
+        its state only in a cycle that writes its status record (post_process writes it
+        whenever a rule fired or status_dirty is set, as every state change sets one), and
+        tells its `on_state` as it does; its clock counts from that process cycle. The
+        modules that cannot tell (an operator module, a test's stand-in): looked at after
+        every cycle, {name: (clock, module)}."""
+        buf, looked = self.block.buf, {}
+        for name, (clock, module) in timed.items():
+            if hasattr(module, "on_state"):
+                module.on_state = self._teller(clock)
+                clock.tick(buf, module.state, self.cycle)  # the state it takes over in
+            else:
+                looked[name] = (clock, module)
+        return looked
+
+    def _teller(self, clock: StateClock) -> Callable[[int], None]:
+        buf = self.block.buf
+
+        def tell(state: int) -> None:
+            clock.tick(buf, state, self.cycle)
+
+        return tell
 
     # ------------------------------------------------------------ running
 
@@ -379,21 +375,10 @@ class Process:
             now = step(now or 0)
         for io in after:
             io()
-        states = self._block_states
-        seen = None if states is None else states(self.words)
-        last = self._states_seen
-        if seen is None or seen != last:
-            buf, cycle, settled = self.block.buf, self.cycle, True
-            pairs: Iterable[tuple[StateClock, Any]] = self._timed_pairs
-            if seen is not None and last is not None:  # every clock was at its module's state:
-                pairs = compress(pairs, map(ne, seen, last))  # look at those whose word moved
-            for clock, module in pairs:  # StateClock.tick inlined: a call per module per
-                state = module.state  # cycle where the state seldom changes
-                if state != clock.state:
-                    clock.enter(buf, state, cycle)
-                    settled = settled and clock.state == state  # (not PAUSED: a code it has)
-            # a module whose state has no count is entered again every cycle, as before
-            self._states_seen = seen if settled else None
+        if self._looked:  # the modules that cannot tell their clock of a new state
+            buf, cycle = self.block.buf, self.cycle
+            for clock, module in self._looked.values():
+                clock.tick(buf, module.state, cycle)
         self.cycle += 1
         self.beat()
 
@@ -412,8 +397,8 @@ class Process:
             module = self.modules.get(name)
             if module is not None:
                 now = module.run_cycle(now or 0)
-                if name in self.timed:
-                    clock, timed = self.timed[name]
+                if name in self._looked:  # (the others tell their clocks themselves)
+                    clock, timed = self._looked[name]
                     clock.tick(self.block.buf, timed.state, self.cycle)
 
     def beat(self, state: int = RUNNING, now_ns: int | None = None) -> None:

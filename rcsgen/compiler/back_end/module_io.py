@@ -192,7 +192,7 @@ def _slots(c: ir.IRController, targets: list[str], shortcut: bool) -> tuple[str,
     """Every attribute of the generated class: its buffers' fields (`targets`), its
     subordinates', world fields, locals, time counters and plans; its last inputs, where an
     idle cycle may stop short."""
-    slots = ["buf", "words", *targets, "status_seq", "status_dirty", "perf_seq"]
+    slots = ["buf", "words", *targets, "status_seq", "status_dirty", "perf_seq", "on_state"]
     if shortcut:
         slots.append("inputs")
     if world_set_rules(c):
@@ -342,7 +342,7 @@ def _runtime_names(
 ) -> set[str]:
     """The contract's names a controller module imports: those its rules need (lowered with
     them), the block's word view, the text codec of its string fields, the seqlock's tries."""
-    names = {*c.runtime_names, "words", "NOP", "performance"}  # NOP: an idle module runs no table
+    names = {*c.runtime_names, "words", "NOP", "performance", "untimed"}  # NOP: idle, no table
     if read.texts or resume_texts:
         names.add("decode_text")
     if any(f.text for f in written):

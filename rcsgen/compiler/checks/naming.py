@@ -73,7 +73,7 @@ RUNTIME_NAMES = frozenset(
     # or report (NOT_READY only where a guard names it), the block's word view, the
     # seqlock's tries, a string field's codec, an error's cause, a plan's problem
     {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "NO_RULE", "STATUS", "PERF", "words"}
-    | {"performance"}
+    | {"performance", "untimed"}
     | {"READ_TRIES", "decode_text", "encode_text", "caused", "HookError", "plan_problem"}
     # what it defines: its inputs' one read and the sequence words read again after it
     | {"INPUTS", "INPUTS_AT", "SEQ_WORDS"}
@@ -113,6 +113,7 @@ CLASS_NAMES = frozenset(
         "every_cycle",  # method of the `every_cycle` rules
         "resume",
         "publish",  # its performance buffer written (rcs.contract.performance)
+        "on_state",  # told its state as it writes its status (rcs/state_time.py)
         "read_inputs",  # pre_process's read again, when another process was writing
         "world_set",  # an every_cycle rule set a world output
         "HOOK_STATE_ON_RESTART",
