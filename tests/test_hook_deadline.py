@@ -8,6 +8,7 @@ a hook raises is the module's HookError, chained; the hook is looked up at each 
 from __future__ import annotations
 
 import faulthandler
+import os
 import random
 import threading
 import time
@@ -121,6 +122,37 @@ def test_a_hook_past_its_deadline_is_interrupted_and_named(bounded: None) -> Non
     assert isinstance(cause, HookOverrun) and cause.interrupted and cause.deadline == 0.05
     assert (caught.value.module, caught.value.hook, caught.value.rule) == ("m", "h", "R/S0/1")
     assert caught.value.cycle == 42 and "deadline of 0.05 s" in str(caught.value)
+
+
+def test_a_child_forked_after_the_watcher_started_has_its_own_watcher(bounded: None) -> None:
+    """The watcher is a thread, and a fork takes only the forking thread along: a child
+    forked after its parent's hook calls started the watcher (multiprocessing's default on
+    Linux) still has a hook past its deadline interrupted, not left to run for an hour."""
+    hooks = types.ModuleType("hooks")
+    hooks.h = lambda: 1.0  # type: ignore[attr-defined]
+    call = hook("m", hooks, "h", 0.05, "f")
+    assert call(Owner(), "R/S0/1") == 1.0  # the parent's watcher runs from here
+    pid = os.fork()
+    if pid == 0:  # the child: exit 0 only if its overrunning hook is interrupted
+        code = 1
+        try:
+            hooks.h = lambda: time.sleep(3600)  # type: ignore[attr-defined]
+            call(Owner(), "R/S0/1")
+        except HookError as error:
+            cause = error.__cause__
+            code = 0 if isinstance(cause, HookOverrun) and cause.interrupted else 2
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            assert os.waitstatus_to_exitcode(status) == 0
+            return
+        time.sleep(0.01)
+    os.kill(pid, 9)
+    os.waitpid(pid, 0)
+    pytest.fail("the forked child's overrunning hook was not interrupted within 20 s")
 
 
 def test_a_hook_that_swallows_the_interruption_has_its_late_result_refused(

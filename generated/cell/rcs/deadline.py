@@ -32,6 +32,7 @@ Standard library only: copied verbatim into every generated package.
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -173,6 +174,15 @@ def _start() -> None:
     _Watch.watcher = threading.Thread(target=_watch, name="rcs-hook-deadline", daemon=True)
     _Watch.watcher.start()
     _Watch.watching[0] = _MAIN
+
+
+def _forget_watcher() -> None:
+    """In a child forked after the watcher started: only the forking thread came along, so
+    there is no watcher; the child's first hook call starts its own."""
+    _Watch.watcher, _Watch.watching[0], _Watch.armed = None, 0, False
+
+
+os.register_at_fork(after_in_child=_forget_watcher)
 
 
 def _watch() -> None:
