@@ -178,8 +178,9 @@ def _start() -> None:
 
 def _forget_watcher() -> None:
     """In a child forked after the watcher started: only the forking thread came along, so
-    there is no watcher; the child's first hook call starts its own."""
-    _Watch.watcher, _Watch.watching[0], _Watch.armed = None, 0, False
+    there is no watcher; the child's first hook call starts its own. SIGALRM's handler came
+    along (and may be another generated package's copy of `_on_alarm`): `armed` stays."""
+    _Watch.watcher, _Watch.watching[0] = None, 0
 
 
 os.register_at_fork(after_in_child=_forget_watcher)
