@@ -60,7 +60,7 @@ MODE_FIELDS = (
 )
 # A module's performance buffer: its execution times and cycle count, which only people and
 # tools read (ctl, the monitor, the launcher's summary). The module keeps them and its
-# process publishes them (the module's `publish`, templates/controller.py.j2) at most every
+# process publishes them (the module's `publish`, templates/controller.py.j2) every
 # PERF_INTERVAL seconds and as it stops; a module publishes at once a cycle that is its
 # longest yet (its first too), and in single_step mode (the step's number: ctl step waits
 # for it). Over Zenoh they go with a push at most as often (rcs/zenoh_transport.py).
@@ -338,7 +338,7 @@ BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))
 # (rcs/loop.py: every beat but one each PERF_INTERVAL), as indices from its sequence word:
 # state with watchdog_trips (low half, high half: one word), heartbeat, beat_ns.
 LIVENESS_WORDS = tuple(
-    Struct(struct_format(PROCESS_FIELDS[: [n for n, _ in PROCESS_FIELDS].index(name)])).size // 8
+    Struct(struct_format(PROCESS_FIELDS[: field_names(PROCESS_FIELDS).index(name)])).size // 8
     for name in ("state", "heartbeat", "beat_ns")
 )
 
